@@ -1,0 +1,99 @@
+"""The three robosuite tasks of the paper: names, robosuite construction arguments, files under envs/."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+TASKS = ("lift", "pick_place_can", "nut_assembly_square")
+
+# robosuite class name for each task.
+ROBOSUITE_ENV = {
+    "lift": "Lift",
+    "pick_place_can": "PickPlaceCan",
+    "nut_assembly_square": "NutAssemblySquare",
+}
+
+# The object whose observables form robomimic's "object" key, and its robosuite body name.
+OBJECT_BODY = {
+    "lift": "cube_main",
+    "pick_place_can": "Can_main",
+    "nut_assembly_square": "SquareNut_main",
+}
+
+# A site on the part of the object a gripper closes on (used by scripted grasps).
+GRASP_SITE = {
+    "lift": "cube_default_site",
+    "pick_place_can": "Can_default_site",
+    "nut_assembly_square": "SquareNut_handle_site",
+}
+
+CONTROL_FREQ = 20
+HORIZON = 400
+# Seed passed to robosuite when the model is built (Lift draws its cube size at build time).
+EXPORT_SEED = 0
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+DEFAULT_ENVS_DIR = REPO_ROOT / "envs"
+
+
+class UnknownTaskError(ValueError):
+    pass
+
+
+def check_task(task: str) -> str:
+    if task not in TASKS:
+        raise UnknownTaskError(f"task: unknown task {task!r}; expected one of {', '.join(TASKS)}")
+    return task
+
+
+@dataclasses.dataclass(frozen=True)
+class TaskFiles:
+    xml: Path
+    meta: Path
+
+
+def task_files(task: str, envs_dir: Path | str | None = None) -> TaskFiles:
+    d = Path(envs_dir) if envs_dir is not None else DEFAULT_ENVS_DIR
+    check_task(task)
+    return TaskFiles(xml=d / f"{task}.xml", meta=d / f"{task}.json")
+
+
+def robosuite_kwargs(seed: int | None = EXPORT_SEED) -> dict:
+    """robomimic's settings for the low-dim datasets: Panda, OSC_POSE (BASIC composite), 20 Hz, full physics."""
+    from robosuite.controllers import load_composite_controller_config
+
+    return dict(
+        robots="Panda",
+        controller_configs=load_composite_controller_config(controller="BASIC", robot="Panda"),
+        has_renderer=False,
+        has_offscreen_renderer=False,
+        use_camera_obs=False,
+        use_object_obs=True,
+        control_freq=CONTROL_FREQ,
+        horizon=HORIZON,
+        ignore_done=True,
+        reward_shaping=False,
+        lite_physics=False,
+        seed=seed,
+    )
+
+
+def make_robosuite(task: str, seed: int | None = EXPORT_SEED, initialization_noise=None):
+    """Build the robosuite environment for `task` (quietly)."""
+    import logging
+
+    import numpy as np
+
+    check_task(task)
+    logging.getLogger("robosuite").setLevel(logging.ERROR)
+    import robosuite as suite
+
+    for h in logging.getLogger("robosuite").handlers:
+        h.setLevel(logging.ERROR)
+    if seed is not None:
+        np.random.seed(seed)
+    kwargs = robosuite_kwargs(seed)
+    if initialization_noise is not None:
+        kwargs["initialization_noise"] = initialization_noise
+    return suite.make(ROBOSUITE_ENV[task], **kwargs)
