@@ -1,0 +1,173 @@
+"""POIR: a BC-ensemble prior, a world-model ensemble, an imitation reward and the planner that joins them.
+
+Written once for every size: the ``cpu-small`` and ``paper`` presets differ only in numbers.
+
+- BC / EBC act from the stacked BC ensemble (head 0 / mean of the K heads).
+- The world model predicts the change of the normalised state: P_k(s, a) = s + f_k(s, a).
+- ``plan(params, obs, key) -> action`` is the paper's SelectAction: N trajectories, horizon H,
+  trajectory n keeps head n mod K for prior and model, reward r_IL(s_t, a_t) summed over
+  t = 1..H (s_1 the real state), top-k average of the first actions, clipped to the bounds.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from typing import Any, Callable
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from poir_mjx.core import ensemble as ens
+from poir_mjx.core import rewards
+from poir_mjx.core.config import POIRConfig
+
+
+@struct.dataclass
+class POIRParams:
+    bc: Any  # stacked BC ensemble [K]
+    wm: Any  # stacked world-model ensemble [K] (None for policy-only agents)
+    reward_wm: Any  # world model used by the MOREL reward (a frozen offline copy during fine-tuning)
+    obs_norm: ens.Normalizer
+    act_norm: ens.Normalizer
+    expert_states: jax.Array  # normalised expert states searched by the L2 reward [E, ds]
+
+
+@dataclasses.dataclass(frozen=True)
+class POIR:
+    config: POIRConfig
+    obs_size: int
+    act_size: int
+
+    @functools.cached_property
+    def bc_module(self):
+        return ens.make_mlp(self.config.bc, self.act_size)
+
+    @functools.cached_property
+    def wm_module(self):
+        return ens.make_mlp(self.config.world_model, self.obs_size)
+
+    def __hash__(self):
+        return hash((self.config, self.obs_size, self.act_size))
+
+    # ------------------------------------------------------------------ training
+    def fit(
+        self,
+        key: jax.Array,
+        obs: np.ndarray,
+        act: np.ndarray,
+        next_obs: np.ndarray,
+        *,
+        train_world_model: bool = True,
+        epochs: int | None = None,
+        callback: Callable[[str, int, np.ndarray], None] | None = None,
+    ) -> tuple[POIRParams, dict]:
+        """Train the BC (and world-model) ensembles on expert transitions. Returns params and loss history."""
+        cfg = self.config
+        obs, act, next_obs = (jnp.asarray(a, jnp.float32) for a in (obs, act, next_obs))
+        if obs.shape[-1] != self.obs_size or next_obs.shape != obs.shape:
+            raise ValueError(f"obs: expected [n, {self.obs_size}] and next_obs of the same shape, got {obs.shape}, {next_obs.shape}")
+        if act.shape != (obs.shape[0], self.act_size):
+            raise ValueError(f"act: expected shape ({obs.shape[0]}, {self.act_size}), got {act.shape}")
+        obs_norm = ens.Normalizer.fit(obs, cfg.normalize)
+        act_norm = ens.Normalizer.fit(act, cfg.normalize)
+        s, a, s2 = obs_norm(obs), act_norm(act), obs_norm(next_obs)
+        k_bc, k_wm, k_loop = jax.random.split(key, 3)
+        opt = ens.make_optimizer(cfg.train)
+        epochs = cfg.train.epochs if epochs is None else epochs
+        history = {"bc": [], "wm": []}
+
+        def run(name, module, k_init, x, y):
+            st = ens.init_train_state(ens.init_ensemble(module, k_init, cfg.ensemble_size, x.shape[-1]), opt)
+            for e in range(epochs):
+                st, loss = ens.train_epoch(module, opt, cfg.train.batch_size, st, x, y, jax.random.fold_in(k_loop, e))
+                history[name].append(np.asarray(loss))
+                if callback is not None:
+                    callback(name, e, np.asarray(loss))
+            return st.params
+
+        bc = run("bc", self.bc_module, k_bc, s, a)
+        wm = run("wm", self.wm_module, k_wm, jnp.concatenate([s, a], -1), s2 - s) if train_world_model else None
+        expert = s
+        if cfg.planner.l2_approx_size:
+            expert = rewards.approximate_subset(s, cfg.planner.l2_approx_size, jax.random.fold_in(key, 7))
+        params = POIRParams(bc=bc, wm=wm, reward_wm=wm, obs_norm=obs_norm, act_norm=act_norm, expert_states=expert)
+        return params, {k: np.array(v) for k, v in history.items()}
+
+    # ------------------------------------------------------------------ policies
+    def _act_bounds(self, params):
+        lo = params.act_norm(jnp.full(self.act_size, self.config.action_low))
+        hi = params.act_norm(jnp.full(self.act_size, self.config.action_high))
+        return lo, hi
+
+    def _to_env_action(self, params, a_norm):
+        return jnp.clip(params.act_norm.inverse(a_norm), self.config.action_low, self.config.action_high)
+
+    def bc_action(self, params: POIRParams, obs: jax.Array) -> jax.Array:
+        """Plain BC: the first network of the ensemble."""
+        return self._to_env_action(params, self.bc_module.apply(jax.tree_util.tree_map(lambda p: p[0], params.bc), params.obs_norm(obs)))
+
+    def ebc_action(self, params: POIRParams, obs: jax.Array) -> jax.Array:
+        """Ensemble BC: the mean of the K networks' actions."""
+        a = ens.apply_all(self.bc_module, params.bc, params.obs_norm(obs)).mean(0)
+        return self._to_env_action(params, a)
+
+    # ------------------------------------------------------------------ planner
+    def head_layout(self) -> tuple[int, int]:
+        """(K, M): trajectory n = k + K j sits at [k, j]; M = ceil(N / K); cells with n >= N are masked."""
+        k = self.config.ensemble_size
+        return k, -(-self.config.planner.num_trajectories // k)
+
+    def trajectory_rewards(self, params: POIRParams, s: jax.Array, a: jax.Array) -> jax.Array:
+        """r_IL(s, a) for states/actions laid out [K, M, .] (normalised) -> [K, M]."""
+        pc = self.config.planner
+        if pc.reward == "l2":
+            flat = s.reshape(-1, s.shape[-1])
+            return rewards.l2_reward(flat, params.expert_states, pc.l2_chunk).reshape(s.shape[:-1])
+        if pc.reward == "dril":
+            return rewards.dril_reward(ens.apply_all(self.bc_module, params.bc, s))
+        preds = ens.apply_all(self.wm_module, params.reward_wm, jnp.concatenate([s, a], -1))
+        return rewards.morel_reward(preds)
+
+    def rollouts(self, params: POIRParams, obs: jax.Array, key: jax.Array):
+        """Imagined trajectories: returns (returns [K, M] with -inf on padding, first actions [K, M, da])."""
+        pc = self.config.planner
+        k, m = self.head_layout()
+        lo, hi = self._act_bounds(params)
+        s0 = jnp.broadcast_to(params.obs_norm(obs), (k, m, self.obs_size))
+        keys = jax.random.split(key, pc.horizon)
+
+        def body(carry, xs):
+            s, ret, first = carry
+            t, kt = xs
+            if pc.use_prior:
+                prior = ens.apply_each(self.bc_module, params.bc, s)
+                a = prior + pc.sigma * jax.random.normal(kt, prior.shape)
+            else:
+                a = jax.random.uniform(kt, (k, m, self.act_size), minval=lo, maxval=hi)
+            a = jnp.clip(a, lo, hi).astype(dt)
+            ret = ret + self.trajectory_rewards(params, s, a).astype(dt)
+            s_next = s + ens.apply_each(self.wm_module, params.wm, jnp.concatenate([s, a], -1)).astype(dt)
+            first = jnp.where(t == 0, a, first).astype(dt)
+            return (s_next, ret, first), None
+
+        dt = s0.dtype
+        init = (s0, jnp.zeros((k, m), dt), jnp.zeros((k, m, self.act_size), dt))
+        (_, ret, first), _ = jax.lax.scan(body, init, (jnp.arange(pc.horizon), keys))
+        n = jnp.arange(k)[:, None] + k * jnp.arange(m)[None, :]
+        ret = jnp.where(n < pc.num_trajectories, ret, -jnp.inf)
+        return ret, first
+
+    def plan(self, params: POIRParams, obs: jax.Array, key: jax.Array) -> jax.Array:
+        """SelectAction: the mean first action of the top-k imagined trajectories, in env units."""
+        ret, first = self.rollouts(params, obs, key)
+        a = top_k_mean(ret.reshape(-1), first.reshape(-1, self.act_size), self.config.planner.top_k)
+        return self._to_env_action(params, a)
+
+
+def top_k_mean(returns: jax.Array, actions: jax.Array, k: int) -> jax.Array:
+    """Mean of the actions of the k largest returns (k = 1: argmax). returns [N], actions [N, d]."""
+    _, top = jax.lax.top_k(returns, k)
+    return actions[top].mean(0)

@@ -1,0 +1,160 @@
+"""Typed, frozen configuration of the POIR core, and the named presets ``cpu-small`` and ``paper``."""
+
+from __future__ import annotations
+
+import dataclasses
+import typing
+from typing import Literal
+
+REWARDS = ("l2", "dril", "morel")
+
+
+class ConfigError(ValueError):
+    """A configuration value is malformed; the message names the field."""
+
+
+@dataclasses.dataclass(frozen=True)
+class MLPConfig:
+    layers: int = 5
+    """Number of Dense layers, the output layer included (paper: 5)."""
+    width: int = 300
+    """Hidden units per hidden layer (paper: 300)."""
+    activation: Literal["relu", "tanh", "gelu"] = "relu"
+    """Hidden activation (paper: relu)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class TrainConfig:
+    epochs: int = 500
+    """Passes over the expert data (paper: 500)."""
+    batch_size: int = 256
+    """Minibatch size per ensemble member (paper: 256)."""
+    learning_rate: float = 1e-4
+    """Adam learning rate (paper: 1e-4)."""
+    beta1: float = 0.9
+    """Adam beta1."""
+    beta2: float = 0.999
+    """Adam beta2."""
+
+
+@dataclasses.dataclass(frozen=True)
+class PlannerConfig:
+    num_trajectories: int = 4000
+    """N, sampled trajectories per planner call (paper: 4000)."""
+    horizon: int = 5
+    """H, imagined steps per trajectory (paper: 5)."""
+    sigma: float = 0.2
+    """Std of the Gaussian noise on the prior's (normalised) actions (paper: 0.2)."""
+    top_k: int = 10
+    """The returned action averages the first actions of the k best trajectories (k=1: argmax).
+    The paper does not state its k; 10 is our choice."""
+    reward: Literal["l2", "dril", "morel"] = "dril"
+    """Imitation reward: L2 distance to expert states, DRIL (BC disagreement), MOREL (model disagreement)."""
+    use_prior: bool = True
+    """False gives the ablation 'POIR without BC prior': candidate actions uniform in the bounds."""
+    l2_chunk: int = 4096
+    """Expert states per chunk in the exact nearest-neighbour search (bounds memory)."""
+    l2_approx_size: int = 0
+    """If > 0, the L2 reward searches a fixed random subset of this many expert states (approximate)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class POIRConfig:
+    ensemble_size: int = 27
+    """K, networks in the BC and world-model ensembles (paper: 27)."""
+    bc: MLPConfig = MLPConfig()
+    """BC policy network."""
+    world_model: MLPConfig = MLPConfig()
+    """World-model network (predicts the normalised state change)."""
+    train: TrainConfig = TrainConfig()
+    """Optimisation of both ensembles."""
+    planner: PlannerConfig = PlannerConfig()
+    """MPPI-style planner."""
+    normalize: bool = True
+    """Normalise observations and actions with the expert data's mean/std (POIR: yes; BC/EBC: no)."""
+    action_low: float = -1.0
+    """Lower action bound (robosuite OSC_POSE and gripper: -1)."""
+    action_high: float = 1.0
+    """Upper action bound (+1)."""
+
+    def validate(self) -> POIRConfig:
+        _validate(self, "")
+        return self
+
+
+def _validate(cfg, prefix):
+    hints = typing.get_type_hints(type(cfg))
+    for f in dataclasses.fields(cfg):
+        v = getattr(cfg, f.name)
+        name = f"{prefix}{f.name}"
+        t = hints[f.name]
+        if dataclasses.is_dataclass(v):
+            _validate(v, name + ".")
+            continue
+        origin = typing.get_origin(t)
+        if origin is Literal:
+            if v not in typing.get_args(t):
+                raise ConfigError(f"{name}: {v!r} is not one of {typing.get_args(t)}")
+        elif t is bool:
+            if not isinstance(v, bool):
+                raise ConfigError(f"{name}: expected a boolean, got {v!r}")
+        elif t is int:
+            if isinstance(v, bool) or not isinstance(v, int):
+                raise ConfigError(f"{name}: expected an integer, got {v!r}")
+            if v < 0 or (v == 0 and f.name not in ("l2_approx_size",)):
+                raise ConfigError(f"{name}: must be positive, got {v}")
+        elif t is float:
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                raise ConfigError(f"{name}: expected a number, got {v!r}")
+            if f.name not in ("action_low", "action_high") and v < 0:
+                raise ConfigError(f"{name}: must be >= 0, got {v}")
+    if isinstance(cfg, POIRConfig) and not cfg.action_low < cfg.action_high:
+        raise ConfigError(f"{prefix}action_low: must be below action_high")
+    if isinstance(cfg, PlannerConfig) and cfg.top_k > cfg.num_trajectories:
+        raise ConfigError(f"{prefix}top_k: {cfg.top_k} exceeds num_trajectories {cfg.num_trajectories}")
+
+
+def to_dict(cfg) -> dict:
+    return dataclasses.asdict(cfg)
+
+
+def from_dict(d: dict, cls=POIRConfig, source: str = "config"):
+    """Build a config from plain data; unknown or mistyped fields raise ConfigError naming them."""
+    if not isinstance(d, dict):
+        raise ConfigError(f"{source}: expected a mapping for {cls.__name__}, got {type(d).__name__}")
+    hints = typing.get_type_hints(cls)
+    names = {f.name for f in dataclasses.fields(cls)}
+    unknown = set(d) - names
+    if unknown:
+        raise ConfigError(f"{source}: unknown field(s) {sorted(unknown)} for {cls.__name__}")
+    kw = {}
+    for k, v in d.items():
+        t = hints[k]
+        kw[k] = from_dict(v, t, f"{source}.{k}") if dataclasses.is_dataclass(t) else v
+    cfg = cls(**kw)
+    if cls is POIRConfig:
+        try:
+            cfg.validate()
+        except ConfigError as e:
+            raise ConfigError(f"{source}: {e}") from None
+    return cfg
+
+
+PRESETS: dict[str, POIRConfig] = {
+    # Trains in minutes and plans in tens of milliseconds on 2 CPU cores.
+    "cpu-small": POIRConfig(
+        ensemble_size=5,
+        bc=MLPConfig(layers=3, width=64),
+        world_model=MLPConfig(layers=3, width=64),
+        train=TrainConfig(epochs=30, batch_size=256),
+        planner=PlannerConfig(num_trajectories=256, horizon=5, sigma=0.2, top_k=5),
+    ),
+    # The paper's sizes (Appendix): K 27, 5x300 MLPs, N 4000, H 5, sigma 0.2, 500 epochs.
+    "paper": POIRConfig(),
+}
+
+
+def preset(name: str) -> POIRConfig:
+    if name not in PRESETS:
+        raise ConfigError(f"preset: unknown preset {name!r}; expected one of {sorted(PRESETS)}")
+    return PRESETS[name]

@@ -1,0 +1,124 @@
+"""Ensembles of MLPs as one set of stacked parameters, applied and trained with ``vmap``.
+
+Every member has its own initialisation and its own minibatch order. One SGD epoch is one
+compiled function (``lax.scan`` over minibatches, ``vmap`` over members).
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Any, NamedTuple
+
+import flax.linen as nn
+import jax
+import jax.numpy as jnp
+import optax
+from flax import struct
+
+from poir_mjx.core.config import MLPConfig, TrainConfig
+
+_ACT = {"relu": nn.relu, "tanh": nn.tanh, "gelu": nn.gelu}
+
+
+class MLP(nn.Module):
+    out: int
+    layers: int
+    width: int
+    activation: str = "relu"
+
+    @nn.compact
+    def __call__(self, x):
+        for _ in range(self.layers - 1):
+            x = _ACT[self.activation](nn.Dense(self.width)(x))
+        return nn.Dense(self.out)(x)
+
+
+def make_mlp(cfg: MLPConfig, out: int) -> MLP:
+    return MLP(out=out, layers=cfg.layers, width=cfg.width, activation=cfg.activation)
+
+
+def init_ensemble(module: nn.Module, key: jax.Array, k: int, in_size: int) -> Any:
+    """K independent initialisations, stacked on a leading axis."""
+    return jax.vmap(lambda kk: module.init(kk, jnp.zeros((1, in_size))))(jax.random.split(key, k))
+
+
+def ensemble_size(params) -> int:
+    return jax.tree_util.tree_leaves(params)[0].shape[0]
+
+
+def apply_all(module: nn.Module, params, x: jax.Array) -> jax.Array:
+    """Every member on the same input: x [..., d] -> [K, ..., out]."""
+    return jax.vmap(lambda p: module.apply(p, x))(params)
+
+
+def apply_each(module: nn.Module, params, x: jax.Array) -> jax.Array:
+    """Member k on its own inputs: x [K, ..., d] -> [K, ..., out]."""
+    return jax.vmap(module.apply)(params, x)
+
+
+@struct.dataclass
+class Normalizer:
+    """Mean/std normalisation from the expert data (identity when disabled)."""
+
+    mean: jax.Array
+    std: jax.Array
+
+    @staticmethod
+    def fit(x: jax.Array, enabled: bool = True, eps: float = 1e-6) -> Normalizer:
+        x = jnp.asarray(x, jnp.float32)
+        if not enabled:
+            return Normalizer(jnp.zeros(x.shape[-1]), jnp.ones(x.shape[-1]))
+        return Normalizer(x.mean(0), jnp.maximum(x.std(0), eps))
+
+    def __call__(self, x):
+        return (x - self.mean) / self.std
+
+    def inverse(self, z):
+        return z * self.std + self.mean
+
+
+class TrainState(NamedTuple):
+    params: Any
+    opt_state: Any
+
+
+def make_optimizer(cfg: TrainConfig) -> optax.GradientTransformation:
+    return optax.adam(cfg.learning_rate, b1=cfg.beta1, b2=cfg.beta2)
+
+
+def init_train_state(params, optimizer) -> TrainState:
+    return TrainState(params, jax.vmap(optimizer.init)(params))
+
+
+@functools.partial(jax.jit, static_argnames=("module", "optimizer", "batch_size"))
+def train_epoch(module, optimizer, batch_size: int, state: TrainState, x, y, key):
+    """One epoch of MSE regression x -> y for every member (own shuffle each); returns (state, mean loss [K])."""
+    k = ensemble_size(state.params)
+    n = x.shape[0]
+    if n < batch_size:
+        raise ValueError(f"batch_size: {batch_size} exceeds the number of training samples {n}")
+    steps = n // batch_size
+    perms = jax.vmap(lambda kk: jax.random.permutation(kk, n))(jax.random.split(key, k))
+    perms = perms[:, : steps * batch_size].reshape(k, steps, batch_size).transpose(1, 0, 2)
+
+    def loss_fn(p, xb, yb):
+        return jnp.mean(jnp.sum((module.apply(p, xb) - yb) ** 2, -1))
+
+    def member_step(p, o, idx):
+        loss, g = jax.value_and_grad(loss_fn)(p, x[idx], y[idx])
+        upd, o = optimizer.update(g, o, p)
+        return optax.apply_updates(p, upd), o, loss
+
+    def body(carry, idx):
+        p, o = carry
+        p, o, loss = jax.vmap(member_step)(p, o, idx)
+        return (p, o), loss
+
+    (p, o), losses = jax.lax.scan(body, (state.params, state.opt_state), perms)
+    return TrainState(p, o), losses.mean(0)
+
+
+def mse(module, params, x, y) -> jax.Array:
+    """Per-member mean squared error (summed over output dims) on (x, y)."""
+    pred = apply_all(module, params, x)
+    return jnp.mean(jnp.sum((pred - y) ** 2, -1), axis=-1)

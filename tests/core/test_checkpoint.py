@@ -1,0 +1,78 @@
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from poir_mjx.core import checkpoint
+from poir_mjx.core.agent import POIR
+from poir_mjx.core.config import ConfigError, MLPConfig, PlannerConfig, POIRConfig, TrainConfig, from_dict, preset, to_dict
+from tests.core.toy import expert_data
+
+CFG = POIRConfig(
+    ensemble_size=2,
+    bc=MLPConfig(layers=2, width=8),
+    world_model=MLPConfig(layers=2, width=8),
+    train=TrainConfig(epochs=2, batch_size=32),
+    planner=PlannerConfig(num_trajectories=5, horizon=2, top_k=2, reward="morel"),
+)
+LAYOUT = {"task": "toy", "obs_keys": ["s"]}
+
+
+@pytest.fixture(scope="module")
+def saved(tmp_path_factory):
+    obs, act, nxt = expert_data(n_demos=4, steps=10)
+    agent = POIR(CFG, 2, 2)
+    params, _ = agent.fit(jax.random.PRNGKey(0), obs, act, nxt)
+    path = checkpoint.save(tmp_path_factory.mktemp("ck") / "agent.ckpt", agent, params, LAYOUT)
+    return agent, params, path
+
+
+def test_round_trip_gives_identical_actions(saved):
+    agent, params, path = saved
+    agent2, params2, layout = checkpoint.load(path, CFG, LAYOUT)
+    assert agent2.config == CFG and layout["obs_size"] == 2
+    s = jnp.array([0.1, 0.2])
+    np.testing.assert_array_equal(agent.plan(params, s, jax.random.PRNGKey(3)), agent2.plan(params2, s, jax.random.PRNGKey(3)))
+    np.testing.assert_array_equal(agent.ebc_action(params, s), agent2.ebc_action(params2, s))
+    assert not list(path.parent.glob(".*.tmp"))  # no temporary file left behind
+
+
+def test_mismatched_config_names_the_field(saved):
+    _, _, path = saved
+    other = dataclasses.replace(CFG, planner=dataclasses.replace(CFG.planner, horizon=3))
+    with pytest.raises(checkpoint.CheckpointError, match=r"agent\.ckpt: config field 'planner\.horizon'"):
+        checkpoint.load(path, other)
+
+
+def test_mismatched_layout_names_the_field(saved):
+    _, _, path = saved
+    with pytest.raises(checkpoint.CheckpointError, match="layout field 'task'"):
+        checkpoint.load(path, CFG, {"task": "lift"})
+
+
+def test_garbage_file_is_a_clear_error(tmp_path):
+    bad = tmp_path / "bad.ckpt"
+    bad.write_bytes(b"not msgpack at all")
+    with pytest.raises(checkpoint.CheckpointError, match="bad.ckpt"):
+        checkpoint.load(bad)
+    with pytest.raises(checkpoint.CheckpointError, match="no such checkpoint"):
+        checkpoint.load(tmp_path / "missing.ckpt")
+
+
+def test_presets_and_config_validation():
+    paper = preset("paper")
+    assert (paper.planner.num_trajectories, paper.planner.horizon, paper.planner.sigma, paper.ensemble_size) == (4000, 5, 0.2, 27)
+    assert (paper.bc.layers, paper.bc.width, paper.train.learning_rate, paper.train.batch_size) == (5, 300, 1e-4, 256)
+    assert from_dict(to_dict(preset("cpu-small"))) == preset("cpu-small")
+    with pytest.raises(ConfigError, match="preset"):
+        preset("huge")
+    with pytest.raises(ConfigError, match=r"planner\.reward"):
+        from_dict({"planner": {"reward": "gail"}})
+    with pytest.raises(ConfigError, match=r"planner\.horizon: expected an integer"):
+        from_dict({"planner": {"horizon": "5"}})
+    with pytest.raises(ConfigError, match=r"train\.learning_rate: must be >= 0"):
+        from_dict({"train": {"learning_rate": -1.0}})
+    with pytest.raises(ConfigError, match="unknown field"):
+        from_dict({"planer": {}})

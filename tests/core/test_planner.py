@@ -1,0 +1,94 @@
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from poir_mjx.core.agent import POIR, top_k_mean
+from poir_mjx.core.config import MLPConfig, PlannerConfig, POIRConfig, TrainConfig
+from poir_mjx.core.rewards import l2_reward
+from tests.core.toy import expert_data
+
+SMALL = POIRConfig(
+    ensemble_size=3,
+    bc=MLPConfig(layers=2, width=32),
+    world_model=MLPConfig(layers=2, width=32),
+    train=TrainConfig(epochs=60, batch_size=64, learning_rate=3e-3),
+    planner=PlannerConfig(num_trajectories=64, horizon=3, sigma=1.0, top_k=4, reward="l2"),
+)
+
+
+def test_top_k_mean_and_argmax():
+    ret = jnp.array([0.0, 5.0, 3.0, 4.0])
+    acts = jnp.arange(8.0).reshape(4, 2)
+    np.testing.assert_array_equal(top_k_mean(ret, acts, 1), acts[1])
+    np.testing.assert_allclose(top_k_mean(ret, acts, 2), (acts[1] + acts[3]) / 2)
+
+
+@pytest.mark.parametrize("n,k", [(10, 3), (9, 3), (1, 3), (4000, 27)])
+def test_round_robin_heads_cover_n_trajectories(n, k):
+    cfg = dataclasses.replace(SMALL, ensemble_size=k, planner=dataclasses.replace(SMALL.planner, num_trajectories=n, top_k=1))
+    kk, m = POIR(cfg, 2, 2).head_layout()
+    assert kk == k and k * m >= n > k * (m - 1)
+    # trajectory n sits at [n mod K, n // K]: each head gets ceil or floor of N/K trajectories
+    idx = np.arange(k)[:, None] + k * np.arange(m)[None, :]
+    counts = (idx < n).sum(1)
+    assert counts.sum() == n and counts.max() - counts.min() <= 1
+    assert np.all(counts == [len(range(h, n, k)) for h in range(k)])
+
+
+@pytest.fixture(scope="module")
+def trained():
+    obs, act, nxt = expert_data()
+    agent = POIR(SMALL, 2, 2)
+    params, hist = agent.fit(jax.random.PRNGKey(0), obs, act, nxt)
+    return agent, params, hist, obs
+
+
+def test_training_reduces_loss(trained):
+    _, _, hist, _ = trained
+    assert hist["bc"].shape == (SMALL.train.epochs, SMALL.ensemble_size)
+    assert np.all(hist["wm"][-1] < 0.2 * hist["wm"][0])
+    assert np.all(hist["bc"][-1] < hist["bc"][0])
+
+
+def test_padding_trajectories_never_win(trained):
+    agent, params, _, _ = trained
+    cfg = dataclasses.replace(SMALL, planner=dataclasses.replace(SMALL.planner, num_trajectories=7, top_k=7))
+    ret, first = POIR(cfg, 2, 2).rollouts(params, jnp.array([0.2, 0.3]), jax.random.PRNGKey(0))
+    assert ret.shape == (3, 3)
+    assert np.isinf(np.asarray(ret)).sum() == 2  # 9 cells, 7 trajectories
+    assert np.isfinite(np.asarray(ret)).sum() == 7
+
+
+def test_poir_returns_to_the_expert_support_better_than_ebc(trained):
+    agent, params, _, expert_obs = trained
+    plan = jax.jit(jax.vmap(agent.plan, in_axes=(None, 0, 0)))
+    ebc = jax.jit(jax.vmap(agent.ebc_action, in_axes=(None, 0)))
+    starts = jnp.array([[0.1, 0.5], [0.3, -0.5], [0.2, 0.6], [0.4, -0.4]], jnp.float32)
+    s_poir, s_ebc = starts, starts
+    key = jax.random.PRNGKey(1)
+    for t in range(15):
+        keys = jax.random.split(jax.random.fold_in(key, t), starts.shape[0])  # one key per episode
+        s_poir = s_poir + plan(params, s_poir, keys)
+        s_ebc = s_ebc + ebc(params, s_ebc)
+    e = jnp.asarray(expert_obs)
+    d0 = -np.asarray(l2_reward(starts, e))
+    d_poir = -np.asarray(l2_reward(s_poir, e))
+    d_ebc = -np.asarray(l2_reward(s_ebc, e))
+    print("start", d0.round(3), "EBC", d_ebc.round(3), "POIR", d_poir.round(3))
+    assert d_poir.mean() < 0.5 * d_ebc.mean()
+    assert np.all(d_poir < d0)
+
+
+def test_no_prior_ablation_samples_uniformly_in_bounds(trained):
+    _, params, _, _ = trained
+    cfg = dataclasses.replace(SMALL, planner=dataclasses.replace(SMALL.planner, use_prior=False))
+    agent = POIR(cfg, 2, 2)
+    _, first = agent.rollouts(params, jnp.zeros(2), jax.random.PRNGKey(0))
+    raw = np.asarray(params.act_norm.inverse(first))
+    assert raw.min() >= -1 - 1e-5 and raw.max() <= 1 + 1e-5
+    assert raw.std() > 0.3  # uniform in [-1, 1] has std 0.58, the prior's actions far less
+    a = np.asarray(agent.plan(params, jnp.zeros(2), jax.random.PRNGKey(0)))
+    assert np.all(np.abs(a) <= 1.0)
