@@ -1,0 +1,255 @@
+"""robomimic's low-dim HDF5 layout, read and written exactly.
+
+Layout::
+
+    data/                     attrs: total (int), env_args (JSON: env_name, type, env_kwargs, ...)
+    data/demo_<k>/            attrs: num_samples (int), model_file (MJCF, optional)
+        actions [T, A]  rewards [T]  dones [T]  states [T, S]
+        obs/<key> [T, d]      next_obs/<key> [T, d]
+    mask/<filter>             array of demo names (bytes), e.g. mask/train, mask/valid
+
+The reader loads only the requested observation keys (h5py slices on demand), validates
+everything it touches and raises ``DatasetError`` naming the file, the demo and the field.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import re
+import tempfile
+from pathlib import Path
+from typing import Any, Sequence
+
+import h5py
+import numpy as np
+
+# robomimic's low-dim observation keys for the three tasks.
+LOW_DIM_KEYS = ("robot0_eef_pos", "robot0_eef_quat", "robot0_gripper_qpos", "object")
+ACTION_SIZE = 7
+ENV_NAMES = {"lift": "Lift", "pick_place_can": "PickPlaceCan", "nut_assembly_square": "NutAssemblySquare"}
+
+
+class DatasetError(ValueError):
+    """Invalid robomimic file; the message names the file, the demo and the field."""
+
+
+@dataclasses.dataclass
+class Transitions:
+    """Expert transitions of a dataset, demos concatenated in file order."""
+
+    obs: np.ndarray  # [N, d] the chosen keys concatenated
+    actions: np.ndarray  # [N, A]
+    next_obs: np.ndarray  # [N, d]
+    demo_names: list[str]
+    demo_starts: np.ndarray  # [D] index of each demo's first transition
+    demo_lengths: np.ndarray  # [D]
+    obs_keys: tuple[str, ...]
+    obs_sizes: tuple[int, ...]
+    env_args: dict[str, Any]
+    provenance: dict[str, Any]  # data attrs other than total/env_args (e.g. our generator's description)
+    path: str
+
+    @property
+    def num_transitions(self) -> int:
+        return int(self.obs.shape[0])
+
+
+def _demo_sort_key(name: str):
+    m = re.fullmatch(r"demo_(\d+)", name)
+    return (0, int(m.group(1))) if m else (1, name)
+
+
+def _err(path, demo, field, msg) -> DatasetError:
+    where = f"{path}" + (f": {demo}" if demo else "") + (f": {field}" if field else "")
+    return DatasetError(f"{where}: {msg}")
+
+
+def read_env_args(path: str | Path) -> dict:
+    with h5py.File(path, "r") as f:
+        if "data" not in f:
+            raise _err(path, None, "data", "missing group")
+        raw = f["data"].attrs.get("env_args")
+        if raw is None:
+            raise _err(path, None, "data.attrs['env_args']", "missing attribute")
+        try:
+            return json.loads(raw)
+        except json.JSONDecodeError as e:
+            raise _err(path, None, "data.attrs['env_args']", f"not valid JSON ({e})") from e
+
+
+def read_transitions(
+    path: str | Path,
+    task: str | None = None,
+    obs_keys: Sequence[str] = LOW_DIM_KEYS,
+    filter_key: str | None = None,
+    max_demos: int | None = None,
+) -> Transitions:
+    """Read (s, a, s') for `obs_keys` from a robomimic low-dim file, validating as it goes.
+
+    `task` (lift, pick_place_can, nut_assembly_square) is checked against ``env_args.env_name``.
+    `filter_key` selects the demos listed in ``mask/<filter_key>``.
+    """
+    path = str(path)
+    if not os.path.isfile(path):
+        raise DatasetError(f"{path}: no such file")
+    try:
+        f = h5py.File(path, "r")
+    except OSError as e:
+        raise DatasetError(f"{path}: not an HDF5 file ({e})") from e
+    with f:
+        if "data" not in f or not isinstance(f["data"], h5py.Group):
+            raise _err(path, None, "data", "missing group")
+        data = f["data"]
+        env_args = read_env_args(path)
+        if task is not None:
+            want = ENV_NAMES.get(task)
+            if want is None:
+                raise DatasetError(f"task: unknown task {task!r}; expected one of {sorted(ENV_NAMES)}")
+            if env_args.get("env_name") != want:
+                raise _err(path, None, "data.attrs['env_args'].env_name", f"is {env_args.get('env_name')!r}, expected {want!r} for task {task}")
+        names = sorted((k for k in data.keys() if isinstance(data[k], h5py.Group)), key=_demo_sort_key)
+        if filter_key is not None:
+            mpath = f"mask/{filter_key}"
+            if mpath not in f:
+                raise _err(path, None, mpath, "missing filter key")
+            listed = [n.decode() if isinstance(n, bytes) else str(n) for n in f[mpath][()]]
+            for n in listed:
+                if n not in data:
+                    raise _err(path, n, mpath, f"filter lists demo {n!r} which is not in data/")
+            names = sorted(listed, key=_demo_sort_key)
+        if max_demos is not None:
+            names = names[:max_demos]
+        if not names:
+            raise _err(path, None, "data", "no demos")
+        obs_l, act_l, nxt_l, lengths, sizes = [], [], [], [], None
+        for name in names:
+            demo = data[name]
+            act = _read(path, name, demo, "actions", ndim=2)
+            t = act.shape[0]
+            if t == 0:
+                raise _err(path, name, "actions", "empty demo (0 samples)")
+            if act.shape[1] != ACTION_SIZE:
+                raise _err(path, name, "actions", f"action size {act.shape[1]}, expected {ACTION_SIZE}")
+            ns = demo.attrs.get("num_samples")
+            if ns is not None and int(ns) != t:
+                raise _err(path, name, "attrs['num_samples']", f"is {int(ns)} but actions has {t} rows")
+            parts, nparts, demo_sizes = [], [], []
+            for group in ("obs", "next_obs"):
+                if group not in demo:
+                    raise _err(path, name, group, "missing group")
+            for key in obs_keys:
+                o = _read(path, name, demo["obs"], key, ndim=2, field=f"obs/{key}")
+                n = _read(path, name, demo["next_obs"], key, ndim=2, field=f"next_obs/{key}")
+                for fld, arr in ((f"obs/{key}", o), (f"next_obs/{key}", n)):
+                    if arr.shape[0] != t:
+                        raise _err(path, name, fld, f"length {arr.shape[0]} differs from actions length {t}")
+                if o.shape[1] != n.shape[1]:
+                    raise _err(path, name, f"next_obs/{key}", f"size {n.shape[1]} differs from obs/{key} size {o.shape[1]}")
+                parts.append(o), nparts.append(n), demo_sizes.append(o.shape[1])
+            if sizes is None:
+                sizes = tuple(demo_sizes)
+            elif tuple(demo_sizes) != sizes:
+                raise _err(path, name, "obs", f"observation sizes {demo_sizes} differ from earlier demos' {list(sizes)}")
+            obs_l.append(np.concatenate(parts, 1)), nxt_l.append(np.concatenate(nparts, 1)), act_l.append(act)
+            lengths.append(t)
+        provenance = {k: _attr(v) for k, v in data.attrs.items() if k not in ("total", "env_args")}
+    lengths = np.array(lengths)
+    return Transitions(
+        obs=np.concatenate(obs_l).astype(np.float32),
+        actions=np.concatenate(act_l).astype(np.float32),
+        next_obs=np.concatenate(nxt_l).astype(np.float32),
+        demo_names=list(names),
+        demo_starts=np.concatenate([[0], np.cumsum(lengths)[:-1]]),
+        demo_lengths=lengths,
+        obs_keys=tuple(obs_keys),
+        obs_sizes=sizes,
+        env_args=env_args,
+        provenance=provenance,
+        path=path,
+    )
+
+
+def _attr(v):
+    if isinstance(v, bytes):
+        v = v.decode()
+    if isinstance(v, str):
+        try:
+            return json.loads(v)
+        except json.JSONDecodeError:
+            return v
+    return v.item() if hasattr(v, "item") else v
+
+
+def _read(path, demo_name, group, key, ndim, field=None) -> np.ndarray:
+    field = field or key
+    if key not in group:
+        raise _err(path, demo_name, field, "missing dataset")
+    arr = group[key][()]
+    if arr.ndim != ndim:
+        raise _err(path, demo_name, field, f"expected {ndim} dimensions, got shape {arr.shape}")
+    if not np.issubdtype(arr.dtype, np.number):
+        raise _err(path, demo_name, field, f"not numeric (dtype {arr.dtype})")
+    if not np.all(np.isfinite(arr)):
+        bad = int(np.argwhere(~np.isfinite(arr))[0][0])
+        raise _err(path, demo_name, field, f"NaN or inf at row {bad}")
+    return arr
+
+
+@dataclasses.dataclass
+class Demo:
+    obs: dict[str, np.ndarray]  # key -> [T, d]
+    next_obs: dict[str, np.ndarray]
+    actions: np.ndarray  # [T, A]
+    rewards: np.ndarray  # [T]
+    dones: np.ndarray  # [T]
+    states: np.ndarray  # [T, S] simulator states to replay the demo
+    model_file: str | None = None
+
+
+def write_robomimic(
+    path: str | Path,
+    demos: Sequence[Demo],
+    env_args: dict,
+    masks: dict[str, Sequence[str]] | None = None,
+    extra_attrs: dict[str, Any] | None = None,
+) -> Path:
+    """Write demos in robomimic's layout, atomically (temporary file in the same folder, then rename)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    os.close(fd)
+    try:
+        with h5py.File(tmp, "w") as f:
+            data = f.create_group("data")
+            total = 0
+            for k, d in enumerate(demos):
+                g = data.create_group(f"demo_{k}")
+                t = int(d.actions.shape[0])
+                g.attrs["num_samples"] = t
+                if d.model_file is not None:
+                    g.attrs["model_file"] = d.model_file
+                g.create_dataset("actions", data=np.asarray(d.actions, np.float64))
+                g.create_dataset("rewards", data=np.asarray(d.rewards, np.float64))
+                g.create_dataset("dones", data=np.asarray(d.dones, np.int64))
+                g.create_dataset("states", data=np.asarray(d.states, np.float64))
+                for grp, obs in (("obs", d.obs), ("next_obs", d.next_obs)):
+                    og = g.create_group(grp)
+                    for key, v in obs.items():
+                        og.create_dataset(key, data=np.asarray(v, np.float64))
+                total += t
+            data.attrs["total"] = total
+            data.attrs["env_args"] = json.dumps(env_args)
+            for k, v in (extra_attrs or {}).items():
+                data.attrs[k] = v if isinstance(v, (int, float, str)) else json.dumps(v)
+            if masks:
+                mg = f.create_group("mask")
+                for name, demos_listed in masks.items():
+                    mg.create_dataset(name, data=np.array([s.encode() for s in demos_listed], dtype="S"))
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path

@@ -1,0 +1,52 @@
+"""Scripted-expert episodes in robosuite (MuJoCo C) and in MJX, recorded in robomimic's layout."""
+
+from __future__ import annotations
+
+import functools
+import time
+
+import jax
+import numpy as np
+
+from poir_mjx.data import expert as ex
+from poir_mjx.data.robomimic import LOW_DIM_KEYS, Demo
+from poir_mjx.envs.tasks import HORIZON, make_robosuite
+
+EXPERT_STEPS = {"lift": 120, "pick_place_can": 300, "nut_assembly_square": 300}
+
+
+def _obs(o) -> dict:
+    return {k: np.asarray(o[k] if k != "object" else o["object-state"], np.float32) for k in LOW_DIM_KEYS}
+
+
+@functools.lru_cache(maxsize=None)
+def _jit_expert(task: str):
+    et = ex.expert_task(task)
+    return jax.jit(lambda rng: ex.init(et, rng)), jax.jit(lambda obs, st: ex.act(et, obs, st))
+
+
+def robosuite_episode(task: str, seed: int, sigma_init: float = 0.02, max_steps: int | None = None, env=None):
+    """One expert episode in robosuite. Returns (Demo, success, steps, seconds). Stops 5 steps after success."""
+    env = env or make_robosuite(task, seed=seed, initialization_noise={"magnitude": sigma_init, "type": "gaussian"})
+    init, act = _jit_expert(task)
+    raw = env.reset()
+    st = init(jax.random.PRNGKey(seed))
+    obs_l, nxt_l, acts, states, rewards, dones = [], [], [], [], [], []
+    t0, success, after = time.perf_counter(), False, 0
+    for t in range(max_steps or min(EXPERT_STEPS[task], HORIZON)):
+        o = _obs(raw)
+        a, st = act(o, st)
+        a = np.asarray(a, np.float64)
+        states.append(np.asarray(env.sim.get_state().flatten()))
+        raw, r, _, _ = env.step(a)
+        success = success or bool(env._check_success())
+        obs_l.append(o), nxt_l.append(_obs(raw)), acts.append(a), rewards.append(float(env._check_success()))
+        dones.append(0)
+        after += int(success)
+        if after >= 5:
+            break
+    dones[-1] = 1
+    stack = lambda lst: {k: np.stack([x[k] for x in lst]) for k in LOW_DIM_KEYS}  # noqa: E731
+    demo = Demo(obs=stack(obs_l), next_obs=stack(nxt_l), actions=np.array(acts), rewards=np.array(rewards),
+                dones=np.array(dones), states=np.array(states), model_file=None)  # fmt: skip
+    return demo, success, len(acts), time.perf_counter() - t0
