@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 export JAX_COMPILATION_CACHE_DIR ?= $(CURDIR)/.cache/jax
 export PYTHONHASHSEED := 0
 
-.PHONY: help venv envs demos expert-success test test-fast bench-env bench-planner bench sweep eval clean
+.PHONY: help venv envs demos expert-success test test-fast bench-env bench-planner bench-e2e bench sweep eval clean
 
 help:
 	@echo "make test       - create .venv, export envs if needed, run the test suite"
@@ -17,7 +17,10 @@ help:
 	@echo "make expert-success - the expert's success rate over 100 episodes -> results/expert/"
 	@echo "make bench-env  - MJX vs robosuite control-step throughput -> results/bench/env.{json,md}"
 	@echo "make bench-planner - POIR planner calls/s -> results/bench/planner.{json,md}"
+	@echo "make bench-e2e  - evaluated episodes per minute, EBC and POIR-DRIL -> results/bench/e2e.{json,md}"
 	@echo "make bench      - all benchmarks -> results/bench/"
+	@echo "make sweep      - success rate vs noise, experiments/cpu-small.json -> results/cpu-small/"
+	@echo "make eval CKPT=... - evaluate one checkpoint on a noise grid, print the table"
 
 $(STAMP): pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found (Python 3.11 is required)"; exit 1; }
@@ -50,13 +53,17 @@ bench-env: $(STAMP)
 bench-planner: $(STAMP)
 	$(PY) -m poir_mjx.bench.planner --out results/bench
 
-bench: bench-env bench-planner
+bench-e2e: $(STAMP)
+	$(PY) -m poir_mjx.bench.e2e --out results/bench
+
+bench: bench-env bench-planner bench-e2e
 
 sweep: $(STAMP)
 	$(PY) -m poir_mjx.cli sweep --config experiments/cpu-small.json
 
 eval: $(STAMP)
-	$(PY) -m poir_mjx.cli eval --ckpt "$(CKPT)"
+	@test -n "$(CKPT)" || { echo "usage: make eval CKPT=checkpoints/<task>/<file>.ckpt [EVAL_ARGS='--sigma-init 0.02 0.2 --episodes 10']"; exit 2; }
+	$(PY) -m poir_mjx.cli eval --ckpt "$(CKPT)" $(EVAL_ARGS)
 
 clean:
 	rm -rf $(VENV) .cache .pytest_cache

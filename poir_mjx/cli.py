@@ -1,36 +1,123 @@
-"""poir-mjx command line: ``python -m poir_mjx.cli <command>``."""
+"""poir-mjx command line: ``python -m poir_mjx.cli <command>``.
+
+    sweep --config experiments/cpu-small.json     success rate versus noise (make sweep)
+    eval --ckpt PATH [--sigma-init ...]            evaluate one checkpoint (make eval CKPT=...)
+    envs / bench-env / bench-planner / demos       the other make targets
+"""
 
 from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
+
+
+def _eval(args) -> int:
+    import jax
+    import numpy as np
+
+    from poir_mjx.core import checkpoint
+    from poir_mjx.core.agent import POIR
+    from poir_mjx.envs.env import make_env, make_params
+    from poir_mjx.eval.methods import get_method
+    from poir_mjx.eval.rollout import make_evaluator, run_batch
+    from poir_mjx.eval.stats import wilson_interval
+
+    agent, params, layout = checkpoint.load(args.ckpt)
+    task = layout.get("task")
+    kind = "poir" if params.wm is not None else "policy"
+    method = get_method(args.method or ("POIR-DRIL" if kind == "poir" else "EBC"))
+    if method.agent_kind != kind:
+        raise checkpoint.CheckpointError(
+            f"{args.ckpt}: method {method.name} needs a '{method.agent_kind}' checkpoint, this one is '{kind}'"
+        )
+    env = make_env(task)
+    if layout.get("obs_size") != sum(env.obs_sizes.values()):
+        raise checkpoint.CheckpointError(f"{args.ckpt}: layout field 'obs_size' does not match task {task}")
+    agent = POIR(method.agent_config(agent.config), agent.obs_size, agent.act_size)
+    grid = [(si, sa) for si in args.sigma_init for sa in args.sigma_action]
+    si = np.repeat([g[0] for g in grid], args.episodes)
+    sa = np.repeat([g[1] for g in grid], args.episodes)
+    evaluator = make_evaluator(env, method.policy_fn(agent), args.max_steps)
+    keys = jax.random.split(jax.random.PRNGKey(args.seed), len(si))
+    res = run_batch(evaluator, params, keys, make_params(si, sa))
+    data = layout.get("demos", {})
+    print(f"{task}, {method.name}, checkpoint {args.ckpt}; expert data: {data.get('source', '?')} "
+          f"({data.get('simulator', data.get('path', '?'))}); {args.episodes} episodes x {args.max_steps} steps")  # fmt: skip
+    print("| sigma_init | sigma_action | success | Wilson 95% | diverged |")
+    print("|---|---|---|---|---|")
+    for j, (a, b) in enumerate(grid):
+        ok = res["first_success"][j * args.episodes : (j + 1) * args.episodes] >= 0
+        lo, hi = wilson_interval(int(ok.sum()), args.episodes)
+        dv = int(res["diverged"][j * args.episodes : (j + 1) * args.episodes].sum())
+        print(f"| {a:g} | {b:g} | {ok.mean():.2f} | [{lo:.2f}, {hi:.2f}] | {dv} |")
+    return 0
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="poir-mjx", description=__doc__)
+    p = argparse.ArgumentParser(prog="poir-mjx", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="command", required=True)
-    sub.add_parser("envs", help="export the robosuite tasks to envs/ (same as `make envs`)")
-    sub.add_parser("bench-env", help="MJX vs robosuite throughput (same as `make bench-env`)")
-    sp = sub.add_parser("sweep", help="success rate versus noise (not implemented yet)")
-    sp.add_argument("--config", required=True)
-    ep = sub.add_parser("eval", help="evaluate a checkpoint (not implemented yet)")
-    ep.add_argument("--ckpt", required=True)
+    sub.add_parser("envs", help="export the robosuite tasks to envs/ (make envs)")
+    sub.add_parser("bench-env", help="MJX vs robosuite throughput (make bench-env)")
+    sub.add_parser("bench-planner", help="planner throughput (make bench-planner)")
+    sub.add_parser("demos", help="scripted-expert demonstrations (make demos)")
+    sp = sub.add_parser("sweep", help="success rate versus noise over a grid (make sweep)")
+    sp.add_argument("--config", required=True, type=Path, help="sweep config file (experiments/*.json)")
+    sp.add_argument("--results", type=Path, default=Path("results"))
+    sp.add_argument("--data", type=Path, default=Path("data/demos"))
+    sp.add_argument("--checkpoints", type=Path, default=Path("checkpoints"))
+    ep = sub.add_parser("eval", help="evaluate a checkpoint on a noise grid (make eval CKPT=...)")
+    ep.add_argument("--ckpt", required=True, type=Path)
+    ep.add_argument("--method", default=None, help="default: EBC for a policy checkpoint, POIR-DRIL for a POIR one")
+    ep.add_argument("--sigma-init", type=float, nargs="+", default=[0.02, 0.1, 0.2, 0.3, 0.4])
+    ep.add_argument("--sigma-action", type=float, nargs="+", default=[0.0])
+    ep.add_argument("--episodes", type=int, default=10)
+    ep.add_argument("--max-steps", type=int, default=400)
+    ep.add_argument("--seed", type=int, default=0)
     args, rest = p.parse_known_args(argv)
-    if args.command == "envs":
-        from poir_mjx.envs.export import main as export_main
 
-        return export_main(rest)
-    if args.command == "bench-env":
-        from poir_mjx.bench.env import main as bench_main
+    from poir_mjx.core.checkpoint import CheckpointError
+    from poir_mjx.core.config import ConfigError
+    from poir_mjx.data.robomimic import DatasetError
+    from poir_mjx.envs.env import ModelFileError
+    from poir_mjx.envs.tasks import UnknownTaskError
+    from poir_mjx.eval.methods import UnknownMethodError
 
-        return bench_main(rest)
-    # The evaluator (issue "Batch evaluator and noise sweeps") has not landed: say so, fail.
-    print(
-        f"poir-mjx {args.command}: not implemented yet -- the batch evaluator, expert data and POIR core "
-        "are open issues (see README, 'Status').",
-        file=sys.stderr,
-    )
-    return 2
+    try:
+        if args.command == "envs":
+            from poir_mjx.envs.export import main as m
+
+            return m(rest)
+        if args.command == "bench-env":
+            from poir_mjx.bench.env import main as m
+
+            return m(rest)
+        if args.command == "bench-planner":
+            from poir_mjx.bench.planner import main as m
+
+            return m(rest)
+        if args.command == "demos":
+            from poir_mjx.data.demos import main as m
+
+            return m(rest or ["generate"])
+        if rest:
+            p.error(f"unrecognised arguments: {' '.join(rest)}")
+        if args.command == "eval":
+            if args.episodes <= 0 or args.max_steps <= 0:
+                raise ConfigError("--episodes and --max-steps must be positive")
+            if min(args.sigma_init + args.sigma_action) < 0:
+                raise ConfigError("--sigma-init/--sigma-action: noise levels must be >= 0")
+            return _eval(args)
+        from poir_mjx.eval.sweep import load_sweep_config, run_sweep
+
+        cfg = load_sweep_config(args.config)
+        out = run_sweep(cfg, args.results, args.data, args.checkpoints)
+        print((out / "summary.md").read_text())
+        print(f"sweep {cfg.name}: tables in {out}/ (summary.md, <task>.md/.csv/.png)")
+        return 0
+    except (ConfigError, CheckpointError, DatasetError, ModelFileError, UnknownTaskError, UnknownMethodError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

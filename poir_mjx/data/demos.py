@@ -202,11 +202,14 @@ def main(argv=None) -> int:
     lines = [
         "# Scripted expert: success rate",
         "",
+        "Length: robosuite, the recorded demo (the episode stops 4 steps after the first success); "
+        "MJX, the step of first success.",
+        "",
         f"Expert: {ex.NAME}; sigma_init {args.sigma_init}, no action noise, seed {args.seed}; "
         f"JAX device {dev.platform} (x64 {jax.config.jax_enable_x64}). Command: `python -m poir_mjx.data.demos "
         + " ".join(sys.argv[1:] if argv is None else argv) + "`.",
         "",
-        "| task | simulator | episodes | successes | success rate | diverged | mean steps to success | wall s |",
+        "| task | simulator | episodes | successes | success rate | diverged | mean length of successful episodes | wall s |",
         "|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:

@@ -1,0 +1,70 @@
+"""The methods the evaluator knows, in one registry.
+
+Each method names the agent it needs (how it is trained) and how it acts. Agents are trained once
+per (task, preset, kind) and shared: BC and EBC use the un-normalised BC ensemble ("policy"
+agent; BC is its first network), every POIR variant uses the normalised BC + world-model
+ensembles ("poir" agent) with its own planner settings. Online fine-tuning and RL baselines are
+later entries of the same registry.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Callable
+
+from poir_mjx.core.agent import POIR
+from poir_mjx.core.config import POIRConfig
+
+
+class UnknownMethodError(ValueError):
+    pass
+
+
+@dataclasses.dataclass(frozen=True)
+class Method:
+    name: str
+    agent_kind: str  # "policy" (BC ensemble, no normalisation) or "poir" (normalised BC + world model)
+    act: str  # "bc", "ebc" or "plan"
+    reward: str | None = None
+    use_prior: bool = True
+    description: str = ""
+
+    def agent_config(self, base: POIRConfig) -> POIRConfig:
+        """The config this method's agent is trained and run with."""
+        if self.agent_kind == "policy":
+            return dataclasses.replace(base, normalize=False)
+        planner = dataclasses.replace(base.planner, reward=self.reward, use_prior=self.use_prior)
+        return dataclasses.replace(base, normalize=True, planner=planner)
+
+    def training_config(self, base: POIRConfig) -> POIRConfig:
+        """What determines the trained weights (planner settings do not): the checkpoint key."""
+        cfg = self.agent_config(base)
+        return dataclasses.replace(cfg, planner=dataclasses.replace(base.planner, reward="dril", use_prior=True))
+
+    def policy_fn(self, agent: POIR) -> Callable:
+        """(params, obs_vector, key) -> action."""
+        if self.act == "bc":
+            return lambda p, o, k: agent.bc_action(p, o)
+        if self.act == "ebc":
+            return lambda p, o, k: agent.ebc_action(p, o)
+        return agent.plan
+
+
+METHODS: dict[str, Method] = {
+    m.name: m
+    for m in (
+        Method("BC", "policy", "bc", description="one BC network (the ensemble's first)"),
+        Method("EBC", "policy", "ebc", description="mean of the K BC networks"),
+        Method("POIR-L2", "poir", "plan", "l2", description="planner, reward: distance to the nearest expert state"),
+        Method("POIR-DRIL", "poir", "plan", "dril", description="planner, reward: BC-ensemble disagreement"),
+        Method("POIR-MOREL", "poir", "plan", "morel", description="planner, reward: world-model disagreement"),
+        Method("POIR-noprior", "poir", "plan", "dril", use_prior=False,
+               description="ablation: uniform candidate actions instead of the BC prior"),  # fmt: skip
+    )
+}
+
+
+def get_method(name: str) -> Method:
+    if name not in METHODS:
+        raise UnknownMethodError(f"method: unknown method {name!r}; expected one of {', '.join(METHODS)}")
+    return METHODS[name]

@@ -1,0 +1,343 @@
+"""Noise sweeps: tasks x methods x (sigma_init, sigma_action) grid x seeds, resumable, atomic.
+
+    python -m poir_mjx.cli sweep --config experiments/cpu-small.json
+
+Layout of ``results/<name>/``:
+    cells/<task>/<method>/si=<s>_sa=<a>_seed=<k>.json   one record per cell (written atomically)
+    <task>.md, <task>.csv, <task>.png                   success rate versus noise
+    summary.md                                          all tables, data provenance, config
+A cell whose record exists with the same config hash is never recomputed, so a sweep killed at
+any moment and started again with the same command finishes with the same tables.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import hashlib
+import json
+import time
+import typing
+from pathlib import Path
+
+import jax
+import numpy as np
+
+from poir_mjx.core import checkpoint
+from poir_mjx.core.agent import POIR
+from poir_mjx.core.config import ConfigError, POIRConfig, preset, to_dict
+from poir_mjx.data.robomimic import LOW_DIM_KEYS, read_transitions
+from poir_mjx.envs.env import make_env, make_params
+from poir_mjx.envs.export import atomic_write_text
+from poir_mjx.envs.tasks import TASKS
+from poir_mjx.eval.methods import METHODS, Method, get_method
+from poir_mjx.eval.rollout import make_evaluator, run_batch
+from poir_mjx.eval.stats import wilson_interval
+
+
+@dataclasses.dataclass(frozen=True)
+class SweepConfig:
+    name: str
+    """Run name: results go to results/<name>/."""
+    preset: str = "cpu-small"
+    """POIR config preset (cpu-small, paper)."""
+    tasks: tuple[str, ...] = ("lift",)
+    """Tasks to evaluate."""
+    methods: tuple[str, ...] = ("EBC", "POIR-DRIL")
+    """Methods from the registry (BC, EBC, POIR-L2, POIR-DRIL, POIR-MOREL, POIR-noprior)."""
+    sigma_init: tuple[float, ...] = (0.02, 0.2, 0.4)
+    """Initial arm-joint noise levels."""
+    sigma_action: tuple[float, ...] = (0.0,)
+    """Action noise levels."""
+    seeds: tuple[int, ...] = (0,)
+    """Training and evaluation seeds."""
+    episodes: int = 10
+    """Episodes per cell."""
+    max_steps: int = 400
+    """Control steps per episode (robosuite's horizon is 400)."""
+    num_demos: int = 200
+    """Scripted-expert demonstrations per task (ignored for tasks given in demo_files)."""
+    demo_files: dict = dataclasses.field(default_factory=dict)
+    """Optional {task: path} of robomimic HDF5 files to use instead of the scripted expert."""
+    epochs: int = 0
+    """If > 0, overrides the preset's training epochs."""
+
+
+def load_sweep_config(path: str | Path) -> SweepConfig:
+    """Parse and validate a sweep config file; errors name the file and the field."""
+    path = Path(path)
+    try:
+        raw = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: no such config file") from None
+    except json.JSONDecodeError as e:
+        raise ConfigError(f"{path}: not valid JSON ({e})") from None
+    if not isinstance(raw, dict):
+        raise ConfigError(f"{path}: expected a JSON object")
+    hints = typing.get_type_hints(SweepConfig)
+    fields = {f.name for f in dataclasses.fields(SweepConfig)}
+    unknown = set(raw) - fields
+    if unknown:
+        raise ConfigError(f"{path}: unknown field(s) {sorted(unknown)}")
+    kw = {}
+    for k, v in raw.items():
+        t = hints[k]
+        if typing.get_origin(t) is tuple:
+            if not isinstance(v, list) or not v:
+                raise ConfigError(f"{path}: field '{k}' must be a non-empty list")
+            item = typing.get_args(t)[0]
+            for x in v:
+                ok = isinstance(x, str) if item is str else (isinstance(x, (int, float)) and not isinstance(x, bool))
+                if item is int:
+                    ok = isinstance(x, int) and not isinstance(x, bool)
+                if not ok:
+                    raise ConfigError(f"{path}: field '{k}' has a {type(x).__name__} item {x!r}, expected {item.__name__}")
+            v = tuple(v)
+        elif t is int and (not isinstance(v, int) or isinstance(v, bool)):
+            raise ConfigError(f"{path}: field '{k}' must be an integer, got {v!r}")
+        elif t is str and not isinstance(v, str):
+            raise ConfigError(f"{path}: field '{k}' must be a string, got {v!r}")
+        elif t is dict and not isinstance(v, dict):
+            raise ConfigError(f"{path}: field '{k}' must be an object")
+        kw[k] = v
+    if "name" not in kw:
+        raise ConfigError(f"{path}: field 'name' is required")
+    cfg = SweepConfig(**kw)
+    for t in cfg.tasks:
+        if t not in TASKS:
+            raise ConfigError(f"{path}: field 'tasks': unknown task {t!r}; expected one of {', '.join(TASKS)}")
+    for m in cfg.methods:
+        if m not in METHODS:
+            raise ConfigError(f"{path}: field 'methods': unknown method {m!r}; expected one of {', '.join(METHODS)}")
+    for fld in ("sigma_init", "sigma_action"):
+        if any(x < 0 for x in getattr(cfg, fld)):
+            raise ConfigError(f"{path}: field '{fld}': noise levels must be >= 0")
+    for fld in ("episodes", "max_steps", "num_demos"):
+        if getattr(cfg, fld) <= 0:
+            raise ConfigError(f"{path}: field '{fld}' must be positive")
+    try:
+        preset(cfg.preset)
+    except ConfigError as e:
+        raise ConfigError(f"{path}: field 'preset': {e}") from None
+    for task, f in cfg.demo_files.items():
+        if task not in TASKS:
+            raise ConfigError(f"{path}: field 'demo_files': unknown task {task!r}")
+        if not Path(f).is_file():
+            raise ConfigError(f"{path}: field 'demo_files.{task}': no such file {f}")
+    return cfg
+
+
+def base_config(cfg: SweepConfig) -> POIRConfig:
+    base = preset(cfg.preset)
+    if cfg.epochs:
+        base = dataclasses.replace(base, train=dataclasses.replace(base.train, epochs=cfg.epochs))
+    return base
+
+
+def _hash(obj) -> str:
+    return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+# ---------------------------------------------------------------------------------- data / training
+def demos_for(cfg: SweepConfig, task: str, data_dir: Path) -> tuple[Path, dict]:
+    """The demo file for `task` (made on first use) and its provenance line."""
+    if task in cfg.demo_files:
+        path = Path(cfg.demo_files[task])
+        return path, {"source": "file", "path": str(path)}
+    from poir_mjx.data.demos import generate
+
+    path = generate(task, cfg.num_demos, seed=0, sigma_init=0.02, out=data_dir)
+    tr = read_transitions(path, task=task, max_demos=1)
+    return path, {"source": "scripted expert", **tr.provenance.get("poir_mjx_generator", {})}
+
+
+def train_or_load(method: Method, cfg: SweepConfig, task: str, seed: int, demo_path: Path, provenance: dict,
+                  ckpt_dir: Path, progress: bool = True):  # fmt: skip
+    """The trained agent for (method's kind, task, seed), from its checkpoint if one matches."""
+    from tqdm import tqdm
+
+    tcfg = method.training_config(base_config(cfg))
+    layout = {"task": task, "obs_keys": list(LOW_DIM_KEYS), "seed": seed, "demos": provenance}
+    key = _hash([to_dict(tcfg), layout])
+    path = ckpt_dir / task / f"{method.agent_kind}-seed{seed}-{key}.ckpt"
+    if path.exists():
+        agent, params, _ = checkpoint.load(path, tcfg, layout)
+    else:
+        tr = read_transitions(demo_path, task=task)
+        agent = POIR(tcfg, tr.obs.shape[1], tr.actions.shape[1])
+        bar = tqdm(total=tcfg.train.epochs * (2 if method.agent_kind == "poir" else 1),
+                   desc=f"train {task} {method.agent_kind} seed {seed}", unit="epoch", disable=not progress)  # fmt: skip
+
+        def cb(name, epoch, loss):
+            bar.update(1)
+            bar.set_postfix({name: f"{float(np.mean(loss)):.4f}"})
+
+        params, _ = agent.fit(jax.random.PRNGKey(seed), tr.obs, tr.actions, tr.next_obs,
+                              train_world_model=method.agent_kind == "poir", callback=cb)  # fmt: skip
+        bar.close()
+        checkpoint.save(path, agent, params, layout)
+    return POIR(method.agent_config(agent.config), agent.obs_size, agent.act_size), params, path
+
+
+@functools.lru_cache(maxsize=None)
+def _evaluator(task: str, method: Method, agent: POIR, steps: int):
+    """One compiled evaluator per (task, method, agent config, steps), reused across cells and runs."""
+    return make_evaluator(make_env(task), method.policy_fn(agent), steps)
+
+
+# ---------------------------------------------------------------------------------- cells
+def cell_path(out: Path, task: str, method: str, si: float, sa: float, seed: int) -> Path:
+    return out / "cells" / task / method / f"si={si:g}_sa={sa:g}_seed={seed}.json"
+
+
+def cell_hash(cfg: SweepConfig, task: str, method: str) -> str:
+    relevant = {
+        "preset": to_dict(get_method(method).agent_config(base_config(cfg))),
+        "episodes": cfg.episodes,
+        "max_steps": cfg.max_steps,
+        "num_demos": cfg.num_demos,
+        "demo_file": cfg.demo_files.get(task),
+    }
+    return _hash(relevant)
+
+
+def read_cell(path: Path, chash: str) -> dict | None:
+    try:
+        rec = json.loads(path.read_text())
+    except (FileNotFoundError, json.JSONDecodeError):
+        return None
+    return rec if rec.get("config_hash") == chash else None
+
+
+def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: Path = Path("data/demos"),
+              ckpt_dir: Path = Path("checkpoints"), progress: bool = True) -> Path:  # fmt: skip
+    from tqdm import tqdm
+
+    out = results_root / cfg.name
+    grid = [(si, sa) for si in cfg.sigma_init for sa in cfg.sigma_action]
+    cells = [(t, m, s) for t in cfg.tasks for m in cfg.methods for s in cfg.seeds]
+    total_eps = len(cells) * len(grid) * cfg.episodes
+    bar = tqdm(total=total_eps, desc=f"sweep {cfg.name}", unit="ep", disable=not progress)
+    t_start, done_now = time.perf_counter(), 0
+    for task, mname, seed in cells:
+        method = get_method(mname)
+        chash = cell_hash(cfg, task, mname)
+        paths = [cell_path(out, task, mname, si, sa, seed) for si, sa in grid]
+        if all(read_cell(p, chash) for p in paths):
+            bar.update(len(grid) * cfg.episodes)
+            continue
+        demo_path, prov = demos_for(cfg, task, data_dir)
+        agent, params, ckpt = train_or_load(method, cfg, task, seed, demo_path, prov, ckpt_dir, progress)
+        evaluator = _evaluator(task, method, agent, cfg.max_steps)
+        si = np.repeat([g[0] for g in grid], cfg.episodes)
+        sa = np.repeat([g[1] for g in grid], cfg.episodes)
+        keys = jax.random.split(jax.random.fold_in(jax.random.PRNGKey(seed), 1), len(si))  # one key per episode
+        t0 = time.perf_counter()
+        res = run_batch(evaluator, params, keys, make_params(si, sa))
+        wall = time.perf_counter() - t0
+        for j, ((s_i, s_a), path) in enumerate(zip(grid, paths)):
+            sl = slice(j * cfg.episodes, (j + 1) * cfg.episodes)
+            first = res["first_success"][sl]
+            ok = first >= 0
+            k = int(ok.sum())
+            lo, hi = wilson_interval(k, cfg.episodes)
+            lengths = np.where(ok, first, cfg.max_steps)
+            rec = {
+                "task": task, "method": mname, "sigma_init": s_i, "sigma_action": s_a, "seed": seed,
+                "successes": k, "episodes": cfg.episodes, "success_rate": k / cfg.episodes, "wilson95": [lo, hi],
+                "mean_episode_length": float(lengths.mean()), "diverged": int(res["diverged"][sl].sum()),
+                "max_steps": cfg.max_steps, "wall_s": wall / len(grid), "config_hash": chash,
+                "checkpoint": str(ckpt), "data": prov, "device": f"{jax.devices()[0].platform} x{jax.device_count()}",
+                "x64": bool(jax.config.jax_enable_x64),
+            }  # fmt: skip
+            atomic_write_text(path, json.dumps(rec, indent=2) + "\n")
+        done_now += len(si)
+        bar.update(len(si))
+        bar.set_postfix(eps_per_s=f"{done_now / (time.perf_counter() - t_start):.2f}")
+    bar.close()
+    write_tables(cfg, out)
+    return out
+
+
+# ---------------------------------------------------------------------------------- tables
+def collect(cfg: SweepConfig, out: Path, task: str) -> dict:
+    table = {}
+    for mname in cfg.methods:
+        chash = cell_hash(cfg, task, mname)
+        for si in cfg.sigma_init:
+            for sa in cfg.sigma_action:
+                recs = [read_cell(cell_path(out, task, mname, si, sa, s), chash) for s in cfg.seeds]
+                recs = [r for r in recs if r]
+                if recs:
+                    k = sum(r["successes"] for r in recs)
+                    n = sum(r["episodes"] for r in recs)
+                    table[(mname, si, sa)] = {"k": k, "n": n, "ci": wilson_interval(k, n), "data": recs[0]["data"],
+                                              "diverged": sum(r["diverged"] for r in recs)}  # fmt: skip
+    return table
+
+
+def _col(si, sa, cfg):
+    return f"σ_init {si:g}" + (f", σ_act {sa:g}" if len(cfg.sigma_action) > 1 or sa else "")
+
+
+def write_tables(cfg: SweepConfig, out: Path) -> str:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    sections = []
+    for task in cfg.tasks:
+        table = collect(cfg, out, task)
+        if not table:
+            continue
+        data = next(iter(table.values()))["data"]
+        src = (f"scripted expert ({data.get('expert', '?')}, {data.get('simulator', '?')}, "
+               f"{data.get('num_demos', '?')} demos)" if data.get("source") == "scripted expert"
+               else f"robomimic file {data.get('path')}")  # fmt: skip
+        cols = [(si, sa) for si in cfg.sigma_init for sa in cfg.sigma_action]
+        md = [f"## {task}", "", f"Success rate (Wilson 95% interval), {cfg.episodes} episodes x {len(cfg.seeds)} seed(s) per cell, "
+              f"{cfg.max_steps} steps per episode, preset {cfg.preset}. Expert data: {src}.", "",
+              "| method | " + " | ".join(_col(si, sa, cfg) for si, sa in cols) + " |",
+              "|---|" + "---|" * len(cols)]  # fmt: skip
+        csv = ["method," + ",".join(f"si={si:g} sa={sa:g} {x}" for si, sa in cols for x in ("rate", "lo", "hi"))]
+        for m in cfg.methods:
+            cells, row = [], []
+            for si, sa in cols:
+                c = table.get((m, si, sa))
+                if c is None:
+                    cells.append("-"), row.extend(["", "", ""])
+                else:
+                    div = f" ({c['diverged']} diverged)" if c["diverged"] else ""
+                    cells.append(f"{c['k'] / c['n']:.2f} [{c['ci'][0]:.2f}, {c['ci'][1]:.2f}]{div}")
+                    row.extend([f"{c['k'] / c['n']:.4f}", f"{c['ci'][0]:.4f}", f"{c['ci'][1]:.4f}"])
+            md.append(f"| {m} | " + " | ".join(cells) + " |")
+            csv.append(m + "," + ",".join(row))
+        md_text = "\n".join(md) + "\n"
+        atomic_write_text(out / f"{task}.md", md_text)
+        atomic_write_text(out / f"{task}.csv", "\n".join(csv) + "\n")
+        fig, ax = plt.subplots(figsize=(5, 3.5))
+        for m in cfg.methods:
+            for sa in cfg.sigma_action:
+                xs = [si for si in cfg.sigma_init if (m, si, sa) in table]
+                if not xs:
+                    continue
+                ys = [table[(m, si, sa)]["k"] / table[(m, si, sa)]["n"] for si in xs]
+                err = np.array([[y - table[(m, si, sa)]["ci"][0], table[(m, si, sa)]["ci"][1] - y] for si, y in zip(xs, ys)]).T
+                label = m if len(cfg.sigma_action) == 1 else f"{m} σ_act {sa:g}"
+                ax.errorbar(xs, ys, yerr=err, marker="o", capsize=3, label=label)
+        ax.set_xlabel("σ_init (initial joint noise)")
+        ax.set_ylabel("success rate")
+        ax.set_ylim(-0.05, 1.05)
+        ax.set_title(f"{task} ({cfg.preset})")
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        tmp = out / f".{task}.png.tmp.png"
+        fig.savefig(tmp, dpi=120)
+        plt.close(fig)
+        tmp.replace(out / f"{task}.png")
+        sections.append(md_text + f"\n![{task}]({task}.png)\n")
+    summary = "\n".join([f"# Sweep {cfg.name}", "", "Config:", "", "```json",
+                         json.dumps(dataclasses.asdict(cfg), indent=2), "```", ""] + sections)  # fmt: skip
+    atomic_write_text(out / "summary.md", summary)
+    return summary

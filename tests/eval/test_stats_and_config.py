@@ -1,0 +1,54 @@
+import json
+
+import pytest
+
+from poir_mjx.core.config import ConfigError
+from poir_mjx.eval.methods import METHODS, UnknownMethodError, get_method
+from poir_mjx.eval.stats import wilson_interval
+from poir_mjx.eval.sweep import load_sweep_config
+
+
+def test_wilson_interval_known_values():
+    # Reference values (Wilson 1927; e.g. statsmodels proportion_confint(method="wilson")).
+    lo, hi = wilson_interval(8, 10)
+    assert lo == pytest.approx(0.4902, abs=1e-4) and hi == pytest.approx(0.9433, abs=1e-4)
+    lo, hi = wilson_interval(0, 20)
+    assert lo == 0.0 and hi == pytest.approx(0.1611, abs=1e-4)
+    lo, hi = wilson_interval(20, 20)
+    assert lo == pytest.approx(0.8389, abs=1e-4) and hi == 1.0
+    with pytest.raises(ValueError, match="successes"):
+        wilson_interval(11, 10)
+    with pytest.raises(ValueError, match="n:"):
+        wilson_interval(0, 0)
+
+
+def test_registry_and_configs():
+    assert set(METHODS) == {"BC", "EBC", "POIR-L2", "POIR-DRIL", "POIR-MOREL", "POIR-noprior"}
+    with pytest.raises(UnknownMethodError, match="method: unknown method 'GAIL'"):
+        get_method("GAIL")
+    cfg = load_sweep_config("experiments/cpu-small.json")
+    assert cfg.tasks == ("lift",) and cfg.methods == ("EBC", "POIR-DRIL") and cfg.sigma_init == (0.02, 0.2, 0.4)
+    assert load_sweep_config("experiments/paper.json").seeds == (0, 1, 2, 3, 4)
+
+
+@pytest.mark.parametrize(
+    "patch, match",
+    [
+        ({"methods": ["EBC", "GAIL"]}, "field 'methods': unknown method 'GAIL'"),
+        ({"tasks": ["door"]}, "field 'tasks': unknown task 'door'"),
+        ({"sigma_init": [0.1, -0.2]}, "field 'sigma_init': noise levels must be >= 0"),
+        ({"sigma_init": []}, "field 'sigma_init' must be a non-empty list"),
+        ({"episodes": "10"}, "field 'episodes' must be an integer"),
+        ({"sigma_action": ["0.1"]}, "field 'sigma_action' has a str item"),
+        ({"preset": "huge"}, "field 'preset'"),
+        ({"episodez": 3}, r"unknown field\(s\) \['episodez'\]"),
+        ({"demo_files": {"lift": "/nonexistent.hdf5"}}, "field 'demo_files.lift': no such file"),
+    ],
+)
+def test_malformed_config_names_the_field(tmp_path, patch, match):
+    raw = json.loads(open("experiments/cpu-small.json").read())
+    raw.update(patch)
+    f = tmp_path / "bad.json"
+    f.write_text(json.dumps(raw))
+    with pytest.raises(ConfigError, match=r"bad\.json: " + match):
+        load_sweep_config(f)
