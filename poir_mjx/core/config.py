@@ -141,12 +141,14 @@ def from_dict(d: dict, cls=POIRConfig, source: str = "config"):
 
 
 PRESETS: dict[str, POIRConfig] = {
-    # Trains in minutes and plans in tens of milliseconds on 2 CPU cores.
+    # Trains in under a minute and plans in milliseconds on 2 CPU cores. Fewer epochs than the
+    # paper's 500, so a 10x larger learning rate: at 1e-4 x 30 epochs EBC lifted the cube in 0 of
+    # 10 episodes at sigma_init 0.02; at 1e-3 x 100 epochs in 10 of 10 (robosuite, 200 demos).
     "cpu-small": POIRConfig(
         ensemble_size=5,
         bc=MLPConfig(layers=3, width=64),
         world_model=MLPConfig(layers=3, width=64),
-        train=TrainConfig(epochs=30, batch_size=256),
+        train=TrainConfig(epochs=100, batch_size=256, learning_rate=1e-3),
         planner=PlannerConfig(num_trajectories=256, horizon=5, sigma=0.2, top_k=5),
     ),
     # The paper's sizes (Appendix): K 27, 5x300 MLPs, N 4000, H 5, sigma 0.2, 500 epochs.

@@ -86,11 +86,10 @@ def make_robosuite(task: str, seed: int | None = EXPORT_SEED, initialization_noi
     import numpy as np
 
     check_task(task)
-    logging.getLogger("robosuite").setLevel(logging.ERROR)
     import robosuite as suite
 
-    for h in logging.getLogger("robosuite").handlers:
-        h.setLevel(logging.ERROR)
+    # robosuite logs every unused controller part of its composite config as a warning.
+    logging.getLogger("robosuite_logs").setLevel(logging.ERROR)
     if seed is not None:
         np.random.seed(seed)
     kwargs = robosuite_kwargs(seed)
