@@ -111,6 +111,8 @@ def main(argv=None) -> int:
     p.add_argument("--out", default="results/bench")
     p.add_argument("--tasks", nargs="+", default=list(TASKS), choices=TASKS)
     p.add_argument("--batch-sizes", nargs="+", type=int, default=[1, 16, 64, 256])
+    p.add_argument("--contact-rich-batch-sizes", nargs="+", type=int, default=None,
+                   help="batch sizes for PickPlaceCan and NutAssemblySquare (default: --batch-sizes)")
     p.add_argument("--steps", type=int, default=5, help="timed MJX control steps per batch size")
     p.add_argument("--robosuite-steps", type=int, default=100)
     args = p.parse_args(argv)
@@ -126,7 +128,8 @@ def main(argv=None) -> int:
     }
     for task in args.tasks:
         r = {"robosuite": bench_robosuite(task, args.robosuite_steps), "mjx": []}
-        for b in args.batch_sizes:
+        sizes = args.batch_sizes if (task == "lift" or not args.contact_rich_batch_sizes) else args.contact_rich_batch_sizes
+        for b in sizes:
             r["mjx"].append(bench_mjx(task, b, args.steps))
             print(f"{task} batch {b}: {r['mjx'][-1]['control_steps_per_s']:.1f} steps/s", flush=True)
         res["tasks"][task] = r

@@ -324,6 +324,7 @@ def write_tables(cfg: SweepConfig, out: Path) -> str:
                     continue
                 ys = [table[(m, si, sa)]["k"] / table[(m, si, sa)]["n"] for si in xs]
                 err = np.array([[y - table[(m, si, sa)]["ci"][0], table[(m, si, sa)]["ci"][1] - y] for si, y in zip(xs, ys)]).T
+                err = np.maximum(err, 0.0)
                 label = m if len(cfg.sigma_action) == 1 else f"{m} σ_act {sa:g}"
                 ax.errorbar(xs, ys, yerr=err, marker="o", capsize=3, label=label)
         ax.set_xlabel("σ_init (initial joint noise)")

@@ -16,6 +16,10 @@ def test_wilson_interval_known_values():
     assert lo == 0.0 and hi == pytest.approx(0.1611, abs=1e-4)
     lo, hi = wilson_interval(20, 20)
     assert lo == pytest.approx(0.8389, abs=1e-4) and hi == 1.0
+    for n in range(1, 60):  # the interval contains the observed rate, also at 0 and n
+        for k in (0, n):
+            lo, hi = wilson_interval(k, n)
+            assert lo <= k / n <= hi
     with pytest.raises(ValueError, match="successes"):
         wilson_interval(11, 10)
     with pytest.raises(ValueError, match="n:"):
