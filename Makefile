@@ -47,8 +47,12 @@ test: $(STAMP)
 test-fast: $(STAMP)
 	$(PY) -m pytest -q -m "not slow" tests
 
+# PickPlaceCan / NutAssemblySquare cost about 1 s per control step per episode on a 2-core CPU:
+# override on a GPU, e.g. make bench-env BENCH_ENV_ARGS="--contact-rich-batch-sizes 1 16 64 256 1024".
+BENCH_ENV_ARGS ?= --contact-rich-batch-sizes 1 16
+
 bench-env: $(STAMP)
-	$(PY) -m poir_mjx.bench.env --out results/bench
+	$(PY) -m poir_mjx.bench.env --out results/bench $(BENCH_ENV_ARGS)
 
 bench-planner: $(STAMP)
 	$(PY) -m poir_mjx.bench.planner --out results/bench

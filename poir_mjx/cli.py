@@ -111,6 +111,9 @@ def main(argv=None) -> int:
         from poir_mjx.eval.sweep import load_sweep_config, run_sweep
 
         cfg = load_sweep_config(args.config)
+        import jax
+
+        jax.config.update("jax_enable_x64", cfg.x64)  # before any array exists
         out = run_sweep(cfg, args.results, args.data, args.checkpoints)
         print((out / "summary.md").read_text())
         print(f"sweep {cfg.name}: tables in {out}/ (summary.md, <task>.md/.csv/.png)")

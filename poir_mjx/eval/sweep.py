@@ -61,6 +61,8 @@ class SweepConfig:
     """Optional {task: path} of robomimic HDF5 files to use instead of the scripted expert."""
     epochs: int = 0
     """If > 0, overrides the preset's training epochs."""
+    x64: bool = False
+    """Run MJX (and the networks) in float64: slower, but float32 once launched Square's nut mid-grasp."""
 
 
 def load_sweep_config(path: str | Path) -> SweepConfig:
@@ -93,6 +95,8 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
                 if not ok:
                     raise ConfigError(f"{path}: field '{k}' has a {type(x).__name__} item {x!r}, expected {item.__name__}")
             v = tuple(v)
+        elif t is bool and not isinstance(v, bool):
+            raise ConfigError(f"{path}: field '{k}' must be true or false, got {v!r}")
         elif t is int and (not isinstance(v, int) or isinstance(v, bool)):
             raise ConfigError(f"{path}: field '{k}' must be an integer, got {v!r}")
         elif t is str and not isinstance(v, str):
@@ -197,6 +201,7 @@ def cell_hash(cfg: SweepConfig, task: str, method: str) -> str:
         "max_steps": cfg.max_steps,
         "num_demos": cfg.num_demos,
         "demo_file": cfg.demo_files.get(task),
+        "x64": cfg.x64,
     }
     return _hash(relevant)
 
