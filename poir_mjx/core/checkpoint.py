@@ -7,8 +7,6 @@ Writes go to a temporary file in the same folder, then an atomic rename.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +14,7 @@ import jax
 import numpy as np
 from flax import serialization
 
+from poir_mjx.atomic import atomic_write_bytes
 from poir_mjx.core.agent import POIR, POIRParams
 from poir_mjx.core.config import ConfigError, POIRConfig, from_dict, to_dict
 from poir_mjx.core.ensemble import Normalizer
@@ -30,25 +29,13 @@ class CheckpointError(ValueError):
 def save(path: str | Path, agent: POIR, params: POIRParams, layout: dict[str, Any]) -> Path:
     """Write a checkpoint atomically. `layout` describes the observations (keys, sizes, task, data provenance)."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     state = {
         "format": FORMAT,
         "config": json.dumps(to_dict(agent.config), sort_keys=True),
         "layout": json.dumps({**layout, "obs_size": agent.obs_size, "act_size": agent.act_size}, sort_keys=True),
         "params": serialization.to_state_dict(jax.tree_util.tree_map(np.asarray, _plain(params))),
     }
-    blob = serialization.msgpack_serialize(state)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(blob)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    atomic_write_bytes(path, serialization.msgpack_serialize(state))
     return path
 
 

@@ -18,12 +18,13 @@ import dataclasses
 import json
 import os
 import re
-import tempfile
 from pathlib import Path
 from typing import Any, Sequence
 
 import h5py
 import numpy as np
+
+from poir_mjx.atomic import atomic_path
 
 # robomimic's low-dim observation keys for the three tasks.
 LOW_DIM_KEYS = ("robot0_eef_pos", "robot0_eef_quat", "robot0_gripper_qpos", "object")
@@ -217,10 +218,7 @@ def write_robomimic(
 ) -> Path:
     """Write demos in robomimic's layout, atomically (temporary file in the same folder, then rename)."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
+    with atomic_path(path) as tmp:
         with h5py.File(tmp, "w") as f:
             data = f.create_group("data")
             total = 0
@@ -247,9 +245,4 @@ def write_robomimic(
                 mg = f.create_group("mask")
                 for name, demos_listed in masks.items():
                     mg.create_dataset(name, data=np.array([s.encode() for s in demos_listed], dtype="S"))
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
     return path

@@ -28,11 +28,11 @@ import argparse
 import json
 import os
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from poir_mjx.atomic import atomic_write_text  # noqa: F401  (re-exported for callers)
 from poir_mjx.envs.tasks import (
     CONTROL_FREQ,
     EXPORT_SEED,
@@ -279,19 +279,6 @@ def export_task(task: str) -> tuple[str, str]:
         raise RuntimeError(f"{task}: expected one compiler meshdir attribute in the exported XML")
     xml = xml.replace(marker, "")
     return xml, json.dumps(meta, indent=2, sort_keys=True) + "\n"
-
-
-def atomic_write_text(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def main(argv=None) -> int:
