@@ -50,17 +50,23 @@ def _plain(params: POIRParams) -> dict:
     }
 
 
-def read(path: str | Path) -> tuple[POIRConfig, dict, dict]:
-    """(config, layout, raw params) of a checkpoint file, with clear errors."""
-    path = Path(path)
+def read_blob(path: Path, fmt: str = FORMAT) -> dict:
+    """The msgpack mapping stored in `path`, which must carry format `fmt`; errors name the file and field."""
     if not path.is_file():
         raise CheckpointError(f"{path}: no such checkpoint file")
     try:
         state = serialization.msgpack_restore(path.read_bytes())
     except Exception as e:
         raise CheckpointError(f"{path}: not a poir-mjx checkpoint ({type(e).__name__}: {e})") from e
-    if not isinstance(state, dict) or state.get("format") != FORMAT:
-        raise CheckpointError(f"{path}: field 'format' is not {FORMAT!r}")
+    if not isinstance(state, dict) or state.get("format") != fmt:
+        raise CheckpointError(f"{path}: field 'format' is not {fmt!r}")
+    return state
+
+
+def read(path: str | Path) -> tuple[POIRConfig, dict, dict]:
+    """(config, layout, raw params) of a checkpoint file, with clear errors."""
+    path = Path(path)
+    state = read_blob(path)
     try:
         config = from_dict(json.loads(state["config"]), POIRConfig, source=f"{path}: config")
     except (ConfigError, KeyError, json.JSONDecodeError) as e:

@@ -275,6 +275,10 @@ class TaskEnv:
         success = self.check_success(d)
         return State(data=d, obs=self.observe(d), done=jnp.zeros((), bool), success=success, info=info)
 
+    def obs_vector(self, state: State) -> jax.Array:
+        """The policy's input: robomimic's low-dim keys concatenated (``flatten_obs``)."""
+        return flatten_obs(state.obs)
+
     def reset(self, rng: jax.Array, params: EnvParams) -> State:
         k_qpos, k_ep = jax.random.split(rng)
         return self.reset_to(self.sample_qpos(k_qpos, params), k_ep, params)

@@ -14,7 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
-from poir_mjx.envs.env import EnvParams, TaskEnv, flatten_obs
+from poir_mjx.envs.env import EnvParams, TaskEnv
 
 
 @functools.lru_cache(maxsize=None)
@@ -23,14 +23,17 @@ def episode_mesh() -> Mesh:
 
 
 def make_evaluator(env: TaskEnv, policy_fn, steps: int):
-    """jit(vmap(episode)): (agent params, keys [B], EnvParams [B]) -> per-episode results."""
+    """jit(vmap(episode)): (agent params, keys [B], EnvParams [B]) -> per-episode results.
+
+    `env` is anything with reset(key, EnvParams), step(state, action) and obs_vector(state).
+    """
 
     def episode(params, key, env_params: EnvParams):
         k_reset, k_run = jax.random.split(key)
         state = env.reset(k_reset, env_params)
 
         def body(state, k):
-            action = policy_fn(params, flatten_obs(state.obs), k)
+            action = policy_fn(params, env.obs_vector(state), k)
             return env.step(state, action), None
 
         state, _ = jax.lax.scan(body, state, jax.random.split(k_run, steps))
@@ -43,8 +46,19 @@ def make_evaluator(env: TaskEnv, policy_fn, steps: int):
     return jax.jit(jax.vmap(episode, in_axes=(None, 0, 0)))
 
 
+def replicate(tree):
+    """Commit a pytree to every device of the episode mesh (replicated): the same sharding on every call,
+    so a jitted function sees one signature whether its inputs are fresh or outputs of another jit."""
+    return jax.device_put(tree, NamedSharding(episode_mesh(), PartitionSpec()))
+
+
 def run_batch(evaluator, params, keys: jax.Array, env_params: EnvParams) -> dict[str, np.ndarray]:
-    """Pad the batch to a multiple of the device count, shard it over the mesh, run, unpad."""
+    """`run_sharded`, results copied to the host as numpy arrays."""
+    return jax.tree_util.tree_map(np.asarray, run_sharded(evaluator, params, keys, env_params))
+
+
+def run_sharded(fn, params, keys: jax.Array, env_params: EnvParams):
+    """Pad the batch to a multiple of the device count, shard it over the mesh, run `fn`, unpad (on device)."""
     n = keys.shape[0]
     devices = jax.device_count()
     pad = (-n) % devices
@@ -54,5 +68,5 @@ def run_batch(evaluator, params, keys: jax.Array, env_params: EnvParams) -> dict
     sharding = NamedSharding(episode_mesh(), PartitionSpec("episodes"))
     keys = jax.device_put(keys, sharding)
     env_params = jax.device_put(env_params, sharding)
-    out = evaluator(params, keys, env_params)
-    return {k: np.asarray(v)[:n] for k, v in out.items()}
+    out = fn(replicate(params), keys, env_params)
+    return jax.tree_util.tree_map(lambda v: v[:n], out)

@@ -1,0 +1,216 @@
+"""The online fine-tuning run: deploy the planner, store its transitions, retrain the world model.
+
+One round = ``num_envs`` whole episodes collected in parallel with the current parameters (one
+compiled function: ``lax.scan`` over steps, ``vmap`` over episodes, sharded over the episode mesh),
+then ``updates_per_env_step x steps`` gradient steps on the expert/deployment mixture (one compiled
+function). The BC prior and, for MOREL, the reward's frozen offline world model never change.
+
+Recorded per round: the world model's one-step error on that round's transitions *before* it
+trains on them (the deployment distribution, held out), next to the frozen offline model's error.
+Recorded every ``eval_every`` environment steps (and at step 0, the offline model): success over
+the evaluation keys. The run state is checkpointed after every round; a run started again with the
+same checkpoint path continues from the last finished round and ends with identical results.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from poir_mjx.core import ensemble as ens
+from poir_mjx.core.agent import POIR, POIRParams
+from poir_mjx.envs.env import EnvParams
+from poir_mjx.eval.rollout import replicate, run_sharded
+from poir_mjx.online import buffer as rb
+from poir_mjx.online import checkpoint as ock
+from poir_mjx.online.finetune import deployment_error, finetune, world_model_targets
+
+
+@struct.dataclass
+class RunState:
+    wm: ens.TrainState  # world-model parameters and optimiser state
+    buffer: rb.ReplayBuffer
+    key: jax.Array
+    round: jax.Array  # finished rounds
+    env_steps: jax.Array
+    grad_steps: jax.Array
+
+
+@dataclasses.dataclass
+class OnlineResult:
+    params: POIRParams  # the fine-tuned agent (world model replaced)
+    curve: list[dict]  # evaluations: env_steps, successes, episodes, success_rate, ...
+    rounds: list[dict]  # per round: collection success, world-model errors, loss, online fraction
+    resumed_from_round: int
+
+
+def make_collector(env, policy_fn, steps: int):
+    """jit(vmap(episode)) returning the transitions (obs, action, next_obs, valid) [B, T, .] and outcomes."""
+
+    def episode(params, key, env_params: EnvParams):
+        k_reset, k_run = jax.random.split(key)
+        state = env.reset(k_reset, env_params)
+
+        def body(state, k):
+            obs = env.obs_vector(state)
+            action = policy_fn(params, obs, k)
+            nxt = env.step(state, action)
+            valid = ~state.done & ~nxt.info["diverged"]
+            return nxt, (obs, action, env.obs_vector(nxt), valid)
+
+        state, (o, a, o2, v) = jax.lax.scan(body, state, jax.random.split(k_run, steps))
+        outcome = {"first_success": state.info["first_success"], "diverged": state.info["diverged"]}
+        return (o, a, o2, v), outcome
+
+    return jax.jit(jax.vmap(episode, in_axes=(None, 0, 0)))
+
+
+@dataclasses.dataclass(frozen=True)
+class OnlineTrainer:
+    """Compiled pieces of an online run for one (env, agent, episode length); reuse it across cells."""
+
+    env: Any
+    agent: POIR
+    max_steps: int
+
+    def __hash__(self):
+        return hash((id(self.env), self.agent, self.max_steps))
+
+    @functools.cached_property
+    def collector(self):
+        return make_collector(self.env, self.agent.plan, self.max_steps)
+
+    @property
+    def steps_per_round(self) -> int:
+        return self.agent.config.online.num_envs * self.max_steps
+
+    @property
+    def num_rounds(self) -> int:
+        return math.ceil(self.agent.config.online.total_env_steps / self.steps_per_round)
+
+    @property
+    def grad_steps_per_round(self) -> int:
+        return max(1, round(self.agent.config.online.updates_per_env_step * self.steps_per_round))
+
+    def eval_after(self, r: int) -> bool:
+        """Evaluate after round r (0-based)? At the first round end past each multiple of eval_every, and at the end."""
+        every = self.agent.config.online.eval_every
+        before, after = r * self.steps_per_round, (r + 1) * self.steps_per_round
+        return after // every > before // every or r == self.num_rounds - 1
+
+    def init_state(self, params: POIRParams, key: jax.Array) -> RunState:
+        cfg = self.agent.config
+        opt = ens.make_optimizer(cfg.train)
+        dtype = jax.tree_util.tree_leaves(params.wm)[0].dtype
+        zero = jnp.zeros((), jnp.int32)
+        return RunState(
+            wm=ens.init_train_state(params.wm, opt),
+            buffer=rb.init(cfg.online.buffer_capacity, self.agent.obs_size, self.agent.act_size, dtype),
+            key=key, round=zero, env_steps=zero, grad_steps=zero,
+        )  # fmt: skip
+
+    def run(
+        self,
+        params: POIRParams,
+        offline: tuple[np.ndarray, np.ndarray, np.ndarray],
+        env_params: EnvParams,
+        eval_keys: jax.Array,
+        key: jax.Array,
+        *,
+        checkpoint_path: str | Path | None = None,
+        config_hash: str = "",
+        progress: bool = False,
+        on_round: Callable[[int, dict], None] | None = None,
+    ) -> OnlineResult:
+        """Fine-tune from the offline `params` in the deployment environment `env_params` (scalar noise levels).
+
+        offline: the expert transitions (obs, act, next_obs) the agent was trained on.
+        eval_keys: one key per evaluation episode, the same at every evaluation (paired comparison).
+        """
+        from tqdm import tqdm
+
+        agent, cfg = self.agent, self.agent.config.online
+        if params.wm is None:
+            raise ValueError("params.wm: online fine-tuning needs a world model (a 'poir' agent)")
+        opt = ens.make_optimizer(agent.config.train)
+        obs, act, nxt = (jnp.asarray(a, jax.tree_util.tree_leaves(params.wm)[0].dtype) for a in offline)
+        off_x, off_y = world_model_targets(params.obs_norm, params.act_norm, obs, act, nxt)
+        if off_x.shape[0] < agent.config.train.batch_size:
+            raise ValueError(f"batch_size: {agent.config.train.batch_size} exceeds the {off_x.shape[0]} offline transitions")
+        n = cfg.num_envs
+        deploy = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(jnp.asarray(x), (n,)), env_params)
+        n_eval = eval_keys.shape[0]
+        eval_params = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(jnp.asarray(x), (n_eval,)), env_params)
+
+        state = self.init_state(params, key)
+        curve, rounds = [], []
+        path = Path(checkpoint_path) if checkpoint_path is not None else None
+        if path is not None and path.exists():
+            state, meta = ock.load(path, state, config_hash)
+            curve, rounds = meta["curve"], meta["rounds"]
+        resumed = int(state.round)
+        # committed, replicated inputs from the start: the compiled functions are not traced again in round 2
+        state, params, off_x, off_y = replicate((state, params, off_x, off_y))
+
+        def evaluate(st: RunState) -> dict:
+            t0 = time.perf_counter()
+            # the collector again (its transitions unused): one compilation when num_envs == n_eval
+            _, res = run_sharded(self.collector, params.replace(wm=st.wm.params), eval_keys, eval_params)
+            res = jax.tree_util.tree_map(np.asarray, res)
+            k = int((res["first_success"] >= 0).sum())
+            return {"env_steps": int(st.env_steps), "grad_steps": int(st.grad_steps), "successes": k,
+                    "episodes": n_eval, "success_rate": k / n_eval, "diverged": int(res["diverged"].sum()),
+                    "wall_s": time.perf_counter() - t0}  # fmt: skip
+
+        def save():
+            if path is not None:
+                ock.save(path, state, {"config_hash": config_hash, "curve": curve, "rounds": rounds})
+
+        if not curve:  # step 0: the offline model on the evaluation episodes
+            curve.append(evaluate(state))
+            save()
+        bar = tqdm(total=self.num_rounds, initial=resumed, desc="online", unit="round", disable=not progress)
+        for r in range(resumed, self.num_rounds):
+            t0 = time.perf_counter()
+            key, k_collect, k_train = jax.random.split(state.key, 3)
+            cur = params.replace(wm=state.wm.params)
+            (o, a, o2, v), outcome = run_sharded(self.collector, cur, jax.random.split(k_collect, n), deploy)
+            flat = [x.reshape((-1,) + x.shape[2:]) for x in (o, a, o2, v)]
+            err_now = deployment_error(agent.wm_module, state.wm.params, params.obs_norm, params.act_norm, *flat)
+            err_off = deployment_error(agent.wm_module, params.reward_wm, params.obs_norm, params.act_norm, *flat)
+            buf = rb.add(state.buffer, *flat)
+            wm, losses, frac = finetune(agent.wm_module, opt, cfg, agent.config.train.batch_size,
+                                        self.grad_steps_per_round, state.wm, off_x, off_y, buf,
+                                        params.obs_norm, params.act_norm, state.grad_steps, k_train)  # fmt: skip
+            state = RunState(wm=wm, buffer=buf, key=key, round=state.round + 1,
+                             env_steps=state.env_steps + self.steps_per_round,
+                             grad_steps=state.grad_steps + self.grad_steps_per_round)  # fmt: skip
+            first = np.asarray(outcome["first_success"])
+            log = {
+                "round": r + 1, "env_steps": int(state.env_steps), "grad_steps": int(state.grad_steps),
+                "collect_success_rate": float((first >= 0).mean()),
+                "valid_transitions": int(np.asarray(v).sum()),
+                "wm_error": float(np.mean(err_now)), "wm_error_offline": float(np.mean(err_off)),
+                "loss_last": float(np.mean(losses[-1])), "online_fraction": float(frac),
+                "wall_s": time.perf_counter() - t0,
+            }  # fmt: skip
+            rounds.append(log)
+            if self.eval_after(r):
+                curve.append(evaluate(state))
+            save()
+            bar.update(1)
+            bar.set_postfix(success=f"{curve[-1]['success_rate']:.2f}", wm_err=f"{log['wm_error']:.4f}",
+                            offline_err=f"{log['wm_error_offline']:.4f}")  # fmt: skip
+            if on_round is not None:
+                on_round(r, log)
+        bar.close()
+        return OnlineResult(params.replace(wm=state.wm.params), curve, rounds, resumed)
