@@ -6,8 +6,10 @@ STAMP  := $(VENV)/.installed
 # JAX's persistent compilation cache: MJX programs take minutes to compile on CPU.
 export JAX_COMPILATION_CACHE_DIR ?= $(CURDIR)/.cache/jax
 export PYTHONHASHSEED := 0
+# The sweep config `make sweep` runs; e.g. make sweep SWEEP=experiments/cpu-small-online.json
+SWEEP  ?= experiments/cpu-small.json
 
-.PHONY: help venv envs demos expert-success test test-fast bench-env bench-planner bench-e2e bench sweep eval clean
+.PHONY: help venv envs demos expert-success test test-fast bench-env bench-planner bench-e2e bench sweep sweep-online eval clean
 
 help:
 	@echo "make test       - create .venv, export envs if needed, run the test suite"
@@ -19,7 +21,8 @@ help:
 	@echo "make bench-planner - POIR planner calls/s -> results/bench/planner.{json,md}"
 	@echo "make bench-e2e  - evaluated episodes per minute, EBC and POIR-DRIL -> results/bench/e2e.{json,md}"
 	@echo "make bench      - all benchmarks -> results/bench/"
-	@echo "make sweep      - success rate vs noise, experiments/cpu-small.json -> results/cpu-small/"
+	@echo "make sweep      - success rate vs noise, experiments/cpu-small.json -> results/cpu-small/ (SWEEP=other.json)"
+	@echo "make sweep-online - offline vs online fine-tuning, experiments/cpu-small-online.json -> results/cpu-small-online/"
 	@echo "make eval CKPT=... - evaluate one checkpoint on a noise grid, print the table"
 
 $(STAMP): pyproject.toml
@@ -63,7 +66,10 @@ bench-e2e: $(STAMP)
 bench: bench-env bench-planner bench-e2e
 
 sweep: $(STAMP)
-	$(PY) -m poir_mjx.cli sweep --config experiments/cpu-small.json
+	$(PY) -m poir_mjx.cli sweep --config $(SWEEP)
+
+sweep-online: $(STAMP)
+	$(PY) -m poir_mjx.cli sweep --config experiments/cpu-small-online.json
 
 eval: $(STAMP)
 	@test -n "$(CKPT)" || { echo "usage: make eval CKPT=checkpoints/<task>/<file>.ckpt [EVAL_ARGS='--sigma-init 0.02 0.2 --episodes 10']"; exit 2; }

@@ -19,7 +19,7 @@ def _eval(args) -> int:
     from poir_mjx.core import checkpoint
     from poir_mjx.core.agent import POIR
     from poir_mjx.envs.env import make_env, make_params
-    from poir_mjx.eval.methods import get_method
+    from poir_mjx.eval.methods import UnknownMethodError, get_method
     from poir_mjx.eval.rollout import make_evaluator, run_batch
     from poir_mjx.eval.stats import wilson_interval
 
@@ -27,6 +27,11 @@ def _eval(args) -> int:
     task = layout.get("task")
     kind = "poir" if params.wm is not None else "policy"
     method = get_method(args.method or ("POIR-DRIL" if kind == "poir" else "EBC"))
+    if method.online:
+        raise UnknownMethodError(
+            f"--method: {method.name} fine-tunes in each noise cell during a sweep; use `sweep` with an online config "
+            "(e.g. experiments/cpu-small-online.json)"
+        )
     if method.agent_kind != kind:
         raise checkpoint.CheckpointError(
             f"{args.ckpt}: method {method.name} needs a '{method.agent_kind}' checkpoint, this one is '{kind}'"

@@ -3,8 +3,9 @@
 Each method names the agent it needs (how it is trained) and how it acts. Agents are trained once
 per (task, preset, kind) and shared: BC and EBC use the un-normalised BC ensemble ("policy"
 agent; BC is its first network), every POIR variant uses the normalised BC + world-model
-ensembles ("poir" agent) with its own planner settings. Online fine-tuning and RL baselines are
-later entries of the same registry.
+ensembles ("poir" agent) with its own planner settings. "POIR-<reward> online" starts from the same
+offline "poir" agent and keeps training its world model on its own deployment transitions
+(poir_mjx/online); its cell is the success after fine-tuning, its learning curve is kept beside it.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import dataclasses
 from typing import Callable
 
 from poir_mjx.core.agent import POIR
-from poir_mjx.core.config import POIRConfig
+from poir_mjx.core.config import POIRConfig, offline_key
 
 
 class UnknownMethodError(ValueError):
@@ -27,18 +28,21 @@ class Method:
     act: str  # "bc", "ebc" or "plan"
     reward: str | None = None
     use_prior: bool = True
+    online: bool = False  # fine-tune the world model on deployment data before the evaluation
     description: str = ""
 
     def agent_config(self, base: POIRConfig) -> POIRConfig:
-        """The config this method's agent is trained and run with."""
+        """The config this method's agent is trained and run with (online settings only for online methods)."""
+        if not self.online:
+            base = offline_key(base)
         if self.agent_kind == "policy":
             return dataclasses.replace(base, normalize=False)
         planner = dataclasses.replace(base.planner, reward=self.reward, use_prior=self.use_prior)
         return dataclasses.replace(base, normalize=True, planner=planner)
 
     def training_config(self, base: POIRConfig) -> POIRConfig:
-        """What determines the trained weights (planner settings do not): the checkpoint key."""
-        cfg = self.agent_config(base)
+        """What determines the offline weights (planner and online settings do not): the checkpoint key."""
+        cfg = offline_key(self.agent_config(base))
         return dataclasses.replace(cfg, planner=dataclasses.replace(base.planner, reward="dril", use_prior=True))
 
     def policy_fn(self, agent: POIR) -> Callable:
@@ -60,6 +64,9 @@ METHODS: dict[str, Method] = {
         Method("POIR-MOREL", "poir", "plan", "morel", description="planner, reward: world-model disagreement"),
         Method("POIR-noprior", "poir", "plan", "dril", use_prior=False,
                description="ablation: uniform candidate actions instead of the BC prior"),  # fmt: skip
+        *(Method(f"POIR-{r.upper()} online", "poir", "plan", r, online=True,
+                 description=f"POIR-{r.upper()} after online world-model fine-tuning in the cell's perturbed environment")
+          for r in ("l2", "dril", "morel")),  # fmt: skip
     )
 }
 

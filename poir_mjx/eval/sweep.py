@@ -5,7 +5,11 @@
 Layout of ``results/<name>/``:
     cells/<task>/<method>/si=<s>_sa=<a>_seed=<k>.json   one record per cell (written atomically)
     <task>.md, <task>.csv, <task>.png                   success rate versus noise
+    <task>-online.png                                   learning curves of the online methods
     summary.md                                          all tables, data provenance, config
+An online method ("POIR-<reward> online") fine-tunes its world model in each cell's perturbed
+environment (poir_mjx/online), checkpointing after every round under
+checkpoints/<task>/online/; its cell holds the success after fine-tuning and the learning curve.
 A cell whose record exists with the same config hash is never recomputed, so a sweep killed at
 any moment and started again with the same command finishes with the same tables.
 """
@@ -25,7 +29,7 @@ import numpy as np
 
 from poir_mjx.core import checkpoint
 from poir_mjx.core.agent import POIR
-from poir_mjx.core.config import ConfigError, POIRConfig, preset, to_dict
+from poir_mjx.core.config import ConfigError, POIRConfig, apply_overrides, preset, to_dict
 from poir_mjx.data.robomimic import LOW_DIM_KEYS, read_transitions
 from poir_mjx.envs.env import make_env, make_params
 from poir_mjx.envs.export import atomic_write_text
@@ -61,6 +65,8 @@ class SweepConfig:
     """Optional {task: path} of robomimic HDF5 files to use instead of the scripted expert."""
     epochs: int = 0
     """If > 0, overrides the preset's training epochs."""
+    overrides: dict = dataclasses.field(default_factory=dict)
+    """Dotted POIR config fields replacing the preset's values, e.g. {"online.total_env_steps": 20000}."""
     x64: bool = False
     """Run MJX (and the networks) in float64: slower, but float32 once launched Square's nut mid-grasp."""
 
@@ -123,6 +129,10 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
         preset(cfg.preset)
     except ConfigError as e:
         raise ConfigError(f"{path}: field 'preset': {e}") from None
+    try:
+        base_config(cfg)
+    except ConfigError as e:
+        raise ConfigError(f"{path}: field {e}") from None
     for task, f in cfg.demo_files.items():
         if task not in TASKS:
             raise ConfigError(f"{path}: field 'demo_files': unknown task {task!r}")
@@ -135,7 +145,15 @@ def base_config(cfg: SweepConfig) -> POIRConfig:
     base = preset(cfg.preset)
     if cfg.epochs:
         base = dataclasses.replace(base, train=dataclasses.replace(base.train, epochs=cfg.epochs))
-    return base
+    return apply_overrides(base, cfg.overrides) if cfg.overrides else base
+
+
+def _config_dict(cfg: POIRConfig, online: bool) -> dict:
+    """The config as hashed: offline agents and cells do not depend on the online settings."""
+    d = to_dict(cfg)
+    if not online:
+        d.pop("online")
+    return d
 
 
 def _hash(obj) -> str:
@@ -162,7 +180,7 @@ def train_or_load(method: Method, cfg: SweepConfig, task: str, seed: int, demo_p
 
     tcfg = method.training_config(base_config(cfg))
     layout = {"task": task, "obs_keys": list(LOW_DIM_KEYS), "seed": seed, "demos": provenance}
-    key = _hash([to_dict(tcfg), layout])
+    key = _hash([_config_dict(tcfg, online=False), layout])
     path = ckpt_dir / task / f"{method.agent_kind}-seed{seed}-{key}.ckpt"
     if path.exists():
         agent, params, _ = checkpoint.load(path, tcfg, layout)
@@ -180,7 +198,7 @@ def train_or_load(method: Method, cfg: SweepConfig, task: str, seed: int, demo_p
                               train_world_model=method.agent_kind == "poir", callback=cb)  # fmt: skip
         bar.close()
         checkpoint.save(path, agent, params, layout)
-    return POIR(method.agent_config(agent.config), agent.obs_size, agent.act_size), params, path
+    return POIR(method.agent_config(base_config(cfg)), agent.obs_size, agent.act_size), params, path
 
 
 @functools.lru_cache(maxsize=None)
@@ -196,7 +214,7 @@ def cell_path(out: Path, task: str, method: str, si: float, sa: float, seed: int
 
 def cell_hash(cfg: SweepConfig, task: str, method: str) -> str:
     relevant = {
-        "preset": to_dict(get_method(method).agent_config(base_config(cfg))),
+        "preset": _config_dict(get_method(method).agent_config(base_config(cfg)), get_method(method).online),
         "episodes": cfg.episodes,
         "max_steps": cfg.max_steps,
         "num_demos": cfg.num_demos,
@@ -233,28 +251,42 @@ def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: 
             continue
         demo_path, prov = demos_for(cfg, task, data_dir)
         agent, params, ckpt = train_or_load(method, cfg, task, seed, demo_path, prov, ckpt_dir, progress)
-        evaluator = _evaluator(task, method, agent, cfg.max_steps)
         si = np.repeat([g[0] for g in grid], cfg.episodes)
         sa = np.repeat([g[1] for g in grid], cfg.episodes)
         keys = jax.random.split(jax.random.fold_in(jax.random.PRNGKey(seed), 1), len(si))  # one key per episode
+        common = {"task": task, "method": mname, "seed": seed, "episodes": cfg.episodes, "max_steps": cfg.max_steps,
+                  "config_hash": chash, "checkpoint": str(ckpt), "data": prov,
+                  "device": f"{jax.devices()[0].platform} x{jax.device_count()}", "x64": bool(jax.config.jax_enable_x64)}  # fmt: skip
+        if method.online:
+            # Each noise cell is its own deployment environment: fine-tune there, evaluate on the
+            # cell's own episode keys (the offline cell's keys: a paired comparison).
+            for j, ((s_i, s_a), path) in enumerate(zip(grid, paths)):
+                if read_cell(path, chash):
+                    bar.update(cfg.episodes)
+                    continue
+                sl = slice(j * cfg.episodes, (j + 1) * cfg.episodes)
+                t0 = time.perf_counter()
+                slug = mname.replace(" ", "_")
+                ckpt_path = ckpt_dir / task / "online" / f"{slug}-si={s_i:g}_sa={s_a:g}_seed={seed}-{chash}.ckpt"
+                res = run_online_cell(cfg, task, agent, params, demo_path, s_i, s_a, seed, keys[sl], ckpt_path,
+                                      chash, progress)  # fmt: skip
+                final = res.curve[-1]
+                rec = _cell_record(common, s_i, s_a, final["successes"], final["diverged"], None,
+                                   time.perf_counter() - t0)  # fmt: skip
+                rec.update(curve=res.curve, rounds=res.rounds, online=to_dict(agent.config.online),
+                           resumed_from_round=res.resumed_from_round, online_checkpoint=str(ckpt_path))  # fmt: skip
+                atomic_write_text(path, json.dumps(rec, indent=2) + "\n")
+                done_now += cfg.episodes
+                bar.update(cfg.episodes)
+            continue
         t0 = time.perf_counter()
-        res = run_batch(evaluator, params, keys, make_params(si, sa))
+        res = run_batch(_evaluator(task, method, agent, cfg.max_steps), params, keys, make_params(si, sa))
         wall = time.perf_counter() - t0
         for j, ((s_i, s_a), path) in enumerate(zip(grid, paths)):
             sl = slice(j * cfg.episodes, (j + 1) * cfg.episodes)
             first = res["first_success"][sl]
-            ok = first >= 0
-            k = int(ok.sum())
-            lo, hi = wilson_interval(k, cfg.episodes)
-            lengths = np.where(ok, first, cfg.max_steps)
-            rec = {
-                "task": task, "method": mname, "sigma_init": s_i, "sigma_action": s_a, "seed": seed,
-                "successes": k, "episodes": cfg.episodes, "success_rate": k / cfg.episodes, "wilson95": [lo, hi],
-                "mean_episode_length": float(lengths.mean()), "diverged": int(res["diverged"][sl].sum()),
-                "max_steps": cfg.max_steps, "wall_s": wall / len(grid), "config_hash": chash,
-                "checkpoint": str(ckpt), "data": prov, "device": f"{jax.devices()[0].platform} x{jax.device_count()}",
-                "x64": bool(jax.config.jax_enable_x64),
-            }  # fmt: skip
+            rec = _cell_record(common, s_i, s_a, int((first >= 0).sum()), int(res["diverged"][sl].sum()),
+                               np.where(first >= 0, first, cfg.max_steps), wall / len(grid))  # fmt: skip
             atomic_write_text(path, json.dumps(rec, indent=2) + "\n")
         done_now += len(si)
         bar.update(len(si))
@@ -262,6 +294,35 @@ def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: 
     bar.close()
     write_tables(cfg, out)
     return out
+
+
+def _cell_record(common: dict, si: float, sa: float, k: int, diverged: int, lengths, wall: float) -> dict:
+    n = common["episodes"]
+    lo, hi = wilson_interval(k, n)
+    rec = {**common, "sigma_init": si, "sigma_action": sa, "successes": k, "success_rate": k / n, "wilson95": [lo, hi],
+           "diverged": diverged, "wall_s": wall}  # fmt: skip
+    if lengths is not None:
+        rec["mean_episode_length"] = float(np.mean(lengths))
+    return rec
+
+
+def run_online_cell(cfg: SweepConfig, task: str, agent: POIR, params, demo_path: Path, si: float, sa: float,
+                    seed: int, eval_keys, ckpt_path: Path, chash: str, progress: bool):  # fmt: skip
+    """Online fine-tuning in the cell's environment (resumes from `ckpt_path`), evaluated on `eval_keys`."""
+    tr = read_transitions(demo_path, task=task)
+    trainer = _online_trainer(task, agent, cfg.max_steps)
+    key = jax.random.PRNGKey(seed)
+    for x in (2, round(si * 1e6), round(sa * 1e6)):  # the cell's own stream: collection and training keys
+        key = jax.random.fold_in(key, x)
+    return trainer.run(params, (tr.obs, tr.actions, tr.next_obs), make_params(si, sa), eval_keys, key,
+                       checkpoint_path=ckpt_path, config_hash=chash, progress=progress)  # fmt: skip
+
+
+@functools.lru_cache(maxsize=None)
+def _online_trainer(task: str, agent: POIR, steps: int):
+    from poir_mjx.online.loop import OnlineTrainer
+
+    return OnlineTrainer(make_env(task), agent, steps)
 
 
 # ---------------------------------------------------------------------------------- tables
@@ -337,13 +398,77 @@ def write_tables(cfg: SweepConfig, out: Path) -> str:
         ax.set_ylim(-0.05, 1.05)
         ax.set_title(f"{task} ({cfg.preset})")
         ax.legend(fontsize=8)
-        fig.tight_layout()
-        tmp = out / f".{task}.png.tmp.png"
-        fig.savefig(tmp, dpi=120)
-        plt.close(fig)
-        tmp.replace(out / f"{task}.png")
-        sections.append(md_text + f"\n![{task}]({task}.png)\n")
+        _save_png(fig, out / f"{task}.png")
+        section = md_text + f"\n![{task}]({task}.png)\n"
+        curves = write_learning_curves(cfg, out, task)
+        if curves:
+            atomic_write_text(out / f"{task}.md", md_text + "\n" + curves)
+            section += "\n" + curves + f"\n![{task} online]({task}-online.png)\n"
+        sections.append(section)
     summary = "\n".join([f"# Sweep {cfg.name}", "", "Config:", "", "```json",
                          json.dumps(dataclasses.asdict(cfg), indent=2), "```", ""] + sections)  # fmt: skip
     atomic_write_text(out / "summary.md", summary)
     return summary
+
+
+def write_learning_curves(cfg: SweepConfig, out: Path, task: str) -> str:
+    """Markdown table and `<task>-online.png` of the online methods' curves ("" if there are none)."""
+    import matplotlib.pyplot as plt
+
+    rows, lines = [], []
+    for m in (m for m in cfg.methods if get_method(m).online):
+        chash = cell_hash(cfg, task, m)
+        for si in cfg.sigma_init:
+            for sa in cfg.sigma_action:
+                recs = [read_cell(cell_path(out, task, m, si, sa, s), chash) for s in cfg.seeds]
+                recs = [r for r in recs if r]
+                if not recs:
+                    continue
+                steps = [c["env_steps"] for c in recs[0]["curve"]]
+                k = np.sum([[c["successes"] for c in r["curve"]] for r in recs], 0)
+                n = np.sum([[c["episodes"] for c in r["curve"]] for r in recs], 0)
+                r_steps = [x["env_steps"] for x in recs[0]["rounds"]]
+                err = np.mean([[x["wm_error"] for x in r["rounds"]] for r in recs], 0)
+                err_off = np.mean([[x["wm_error_offline"] for x in r["rounds"]] for r in recs], 0)
+                label = f"{m}, {_col(si, sa, cfg)}"
+                lines.append((label, steps, k / n, r_steps, err, err_off))
+                rows.append(f"| {label} | " + " | ".join(f"{int(x):,}: {a}/{b}" for x, a, b in zip(steps, k, n))
+                            + f" | {err[0]:.4f} → {err[-1]:.4f} (offline model {err_off[-1]:.4f}) |")  # fmt: skip
+    if not rows:
+        return ""
+    oc = get_method(next(m for m in cfg.methods if get_method(m).online)).agent_config(base_config(cfg)).online
+    md = [f"### Online fine-tuning ({task})", "",
+          f"Successes over the cell's evaluation episodes (the offline cell's episodes) versus environment steps "
+          f"collected; {oc.num_envs} episodes per round, {oc.updates_per_env_step:g} world-model gradient steps per "
+          f"environment step, online fraction {oc.mix_start:g} + {oc.mix_increment:g} every {oc.mix_every} steps up to "
+          f"{oc.mix_max:g}. The last column is the world model's one-step error (normalised units) on each round's "
+          f"new deployment transitions before training on them, first round → last round, and the frozen "
+          f"offline model's error on the last round's data.", "",
+          "| method, cell | env steps: successes/episodes | world-model error |", "|---|---|---|"]  # fmt: skip
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(10, 3.5))
+    for label, steps, rate, r_steps, err, err_off in lines:
+        ax.plot(steps, rate, marker="o", label=label)
+        (ln,) = ax2.plot(r_steps, err, marker=".", label=f"{label}: fine-tuned")
+        ax2.plot(r_steps, err_off, linestyle="--", color=ln.get_color(), label=f"{label}: offline model")
+    ax.set_xlabel("environment steps")
+    ax.set_ylabel("success rate")
+    ax.set_ylim(-0.05, 1.05)
+    ax.set_title(f"{task}: online fine-tuning ({cfg.preset})")
+    ax.legend(fontsize=7)
+    ax2.set_xlabel("environment steps")
+    ax2.set_ylabel("one-step error on new deployment data")
+    ax2.set_yscale("log")
+    ax2.legend(fontsize=7)
+    _save_png(fig, out / f"{task}-online.png")
+    return "\n".join(md + rows) + "\n"
+
+
+def _save_png(fig, path: Path) -> None:
+    """Save and close a figure atomically (temporary name, then rename)."""
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, dpi=120)
+    plt.close(fig)
+    tmp.replace(path)

@@ -1,3 +1,4 @@
+import dataclasses
 import json
 
 import pytest
@@ -5,7 +6,7 @@ import pytest
 from poir_mjx.core.config import ConfigError
 from poir_mjx.eval.methods import METHODS, UnknownMethodError, get_method
 from poir_mjx.eval.stats import wilson_interval
-from poir_mjx.eval.sweep import load_sweep_config
+from poir_mjx.eval.sweep import base_config, cell_hash, load_sweep_config
 
 
 def test_wilson_interval_known_values():
@@ -27,12 +28,27 @@ def test_wilson_interval_known_values():
 
 
 def test_registry_and_configs():
-    assert set(METHODS) == {"BC", "EBC", "POIR-L2", "POIR-DRIL", "POIR-MOREL", "POIR-noprior"}
+    assert set(METHODS) == {"BC", "EBC", "POIR-L2", "POIR-DRIL", "POIR-MOREL", "POIR-noprior",
+                            "POIR-L2 online", "POIR-DRIL online", "POIR-MOREL online"}  # fmt: skip
+    assert get_method("POIR-MOREL online").online and get_method("POIR-MOREL online").reward == "morel"
     with pytest.raises(UnknownMethodError, match="method: unknown method 'GAIL'"):
         get_method("GAIL")
     cfg = load_sweep_config("experiments/cpu-small.json")
     assert cfg.tasks == ("lift",) and cfg.methods == ("EBC", "POIR-DRIL") and cfg.sigma_init == (0.02, 0.2, 0.4)
     assert load_sweep_config("experiments/paper.json").seeds == (0, 1, 2, 3, 4)
+    online = load_sweep_config("experiments/cpu-small-online.json")
+    assert "POIR-DRIL online" in online.methods and online.tasks == ("lift",)
+    paper_online = load_sweep_config("experiments/paper-online.json")
+    assert base_config(paper_online).online.total_env_steps == 500_000
+
+
+def test_offline_cells_and_checkpoints_ignore_online_settings():
+    a = load_sweep_config("experiments/cpu-small.json")
+    b = dataclasses.replace(a, overrides={"online.total_env_steps": 123})
+    assert cell_hash(a, "lift", "POIR-DRIL") == cell_hash(b, "lift", "POIR-DRIL")
+    assert cell_hash(a, "lift", "POIR-DRIL online") != cell_hash(b, "lift", "POIR-DRIL online")
+    m = get_method("POIR-DRIL online")
+    assert m.training_config(base_config(b)) == get_method("POIR-DRIL").training_config(base_config(a))
 
 
 @pytest.mark.parametrize(
@@ -47,6 +63,9 @@ def test_registry_and_configs():
         ({"preset": "huge"}, "field 'preset'"),
         ({"episodez": 3}, r"unknown field\(s\) \['episodez'\]"),
         ({"demo_files": {"lift": "/nonexistent.hdf5"}}, "field 'demo_files.lift': no such file"),
+        ({"overrides": {"online.num_envz": 3}}, "field overrides: 'online.num_envz' is not a config field"),
+        ({"overrides": {"online.mix_max": 2.0}}, "field overrides: online.mix_max: a fraction must be in"),
+        ({"overrides": {"online.total_env_steps": "1e4"}}, "field overrides: online.total_env_steps: expected an integer"),
     ],
 )
 def test_malformed_config_names_the_field(tmp_path, patch, match):

@@ -30,6 +30,19 @@ def dirs(tmp_path_factory):
     return root, cfg_path
 
 
+def dies_on_call(real, n):
+    """`real`, except that its n-th call raises KeyboardInterrupt (a sweep killed at that point)."""
+    calls = {"n": 0}
+
+    def wrapper(*a, **k):
+        calls["n"] += 1
+        if calls["n"] == n:
+            raise KeyboardInterrupt
+        return real(*a, **k)
+
+    return wrapper
+
+
 def run(root, cfg_path, results="results"):
     cfg = sw.load_sweep_config(cfg_path)
     return sw.run_sweep(cfg, root / results, root / "data", root / "ckpt", progress=False)
@@ -48,15 +61,7 @@ def test_interrupted_sweep_resumes_to_the_same_tables(dirs, monkeypatch):
 
     # Kill the sweep after its first batch (seed 0): seed 0's cells exist, seed 1's do not.
     real = sw.run_batch
-    calls = {"n": 0}
-
-    def dying(*a, **k):
-        calls["n"] += 1
-        if calls["n"] == 2:
-            raise KeyboardInterrupt
-        return real(*a, **k)
-
-    monkeypatch.setattr(sw, "run_batch", dying)
+    monkeypatch.setattr(sw, "run_batch", dies_on_call(real, 2))
     with pytest.raises(KeyboardInterrupt):
         run(root, cfg_path)
     out = root / "results" / "tiny"
@@ -90,3 +95,39 @@ def test_bad_input_exits_nonzero_and_touches_nothing(tmp_path, capsys):
     assert not (tmp_path / "r").exists()
     rc = cli.main(["eval", "--ckpt", str(tmp_path / "none.ckpt")])
     assert rc == 2 and "no such checkpoint" in capsys.readouterr().err
+
+
+ONLINE = {**CFG, "name": "tiny-online", "methods": ["POIR-DRIL online"], "sigma_init": [0.3], "seeds": [0],
+          "overrides": {"online.total_env_steps": 16, "online.num_envs": 2, "online.eval_every": 8,
+                        "online.buffer_capacity": 64}}  # fmt: skip
+
+
+@pytest.mark.slow
+def test_online_sweep_resumes_mid_run_and_plots_the_curve(tmp_path, monkeypatch):
+    """Real Lift physics: 2 rounds of 2 episodes x 4 steps; killed in round 2, resumed, same tables."""
+    from poir_mjx.online import loop
+
+    cfg_path = tmp_path / "online.json"
+    cfg_path.write_text(json.dumps(ONLINE))
+    cfg = sw.load_sweep_config(cfg_path)
+    full = sw.run_sweep(cfg, tmp_path / "a", tmp_path / "data", tmp_path / "ckpt-a", progress=False)
+    rec = json.loads((full / "cells/lift/POIR-DRIL online/si=0.3_sa=0_seed=0.json").read_text())
+    assert [c["env_steps"] for c in rec["curve"]] == [0, 8, 16] and len(rec["rounds"]) == 2
+    assert rec["successes"] == rec["curve"][-1]["successes"] and rec["resumed_from_round"] == 0
+    assert rec["rounds"][-1]["online_fraction"] == 0.0  # 16 gradient steps: still before the first increment
+    assert rec["rounds"][0]["valid_transitions"] == 8 and rec["rounds"][0]["wm_error"] > 0
+    md = (full / "lift.md").read_text()
+    assert "### Online fine-tuning (lift)" in md and "| POIR-DRIL online, σ_init 0.3 | 0: " in md
+    assert (full / "lift-online.png").stat().st_size > 0
+
+    real = loop.finetune
+    monkeypatch.setattr(loop, "finetune", dies_on_call(real, 2))
+    with pytest.raises(KeyboardInterrupt):
+        sw.run_sweep(cfg, tmp_path / "b", tmp_path / "data", tmp_path / "ckpt-b", progress=False)
+    assert not (tmp_path / "b/tiny-online/cells/lift/POIR-DRIL online/si=0.3_sa=0_seed=0.json").exists()
+    monkeypatch.setattr(loop, "finetune", real)
+    out = sw.run_sweep(cfg, tmp_path / "b", tmp_path / "data", tmp_path / "ckpt-b", progress=False)
+    again = json.loads((out / "cells/lift/POIR-DRIL online/si=0.3_sa=0_seed=0.json").read_text())
+    assert again["resumed_from_round"] == 1
+    assert [c["successes"] for c in again["curve"]] == [c["successes"] for c in rec["curve"]]
+    assert [r["wm_error"] for r in again["rounds"]] == pytest.approx([r["wm_error"] for r in rec["rounds"]], rel=1e-6)
