@@ -432,14 +432,14 @@ def write_learning_curves(cfg: SweepConfig, out: Path, task: str) -> str:
                 err_off = np.mean([[x["wm_error_offline"] for x in r["rounds"]] for r in recs], 0)
                 label = f"{m}, {_col(si, sa, cfg)}"
                 lines.append((label, steps, k / n, r_steps, err, err_off))
-                rows.append(f"| {label} | " + " | ".join(f"{int(x):,}: {a}/{b}" for x, a, b in zip(steps, k, n))
-                            + f" | {err[0]:.4f} → {err[-1]:.4f} (offline model {err_off[-1]:.4f}) |")  # fmt: skip
+                rows.append(f"| {label} | " + "; ".join(f"{int(x):,}: {a}/{b}" for x, a, b in zip(steps, k, n))
+                            + f" | {err[0]:.3g} → {err[-1]:.3g} (offline model {err_off[-1]:.3g}) |")  # fmt: skip
     if not rows:
         return ""
     oc = get_method(next(m for m in cfg.methods if get_method(m).online)).agent_config(base_config(cfg)).online
     md = [f"### Online fine-tuning ({task})", "",
           f"Successes over the cell's evaluation episodes (the offline cell's episodes) versus environment steps "
-          f"collected; {oc.num_envs} episodes per round, {oc.updates_per_env_step:g} world-model gradient steps per "
+          f"collected; {oc.num_envs} episodes per round, {oc.updates_per_env_step:g} world-model gradient step(s) per "
           f"environment step, online fraction {oc.mix_start:g} + {oc.mix_increment:g} every {oc.mix_every} steps up to "
           f"{oc.mix_max:g}. The last column is the world model's one-step error (normalised units) on each round's "
           f"new deployment transitions before training on them, first round → last round, and the frozen "
