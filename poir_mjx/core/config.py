@@ -170,15 +170,19 @@ def offline_key(cfg: POIRConfig) -> POIRConfig:
     return dataclasses.replace(cfg, online=OnlineConfig())
 
 
+def check_fields(d: dict, cls, source: str) -> None:
+    """Refuse keys of `d` that are not fields of the dataclass `cls`, naming them and `source`."""
+    unknown = set(d) - {f.name for f in dataclasses.fields(cls)}
+    if unknown:
+        raise ConfigError(f"{source}: unknown field(s) {sorted(unknown)} for {cls.__name__}")
+
+
 def from_dict(d: dict, cls=POIRConfig, source: str = "config"):
     """Build a config from plain data; unknown or mistyped fields raise ConfigError naming them."""
     if not isinstance(d, dict):
         raise ConfigError(f"{source}: expected a mapping for {cls.__name__}, got {type(d).__name__}")
+    check_fields(d, cls, source)
     hints = typing.get_type_hints(cls)
-    names = {f.name for f in dataclasses.fields(cls)}
-    unknown = set(d) - names
-    if unknown:
-        raise ConfigError(f"{source}: unknown field(s) {sorted(unknown)} for {cls.__name__}")
     kw = {}
     for k, v in d.items():
         t = hints[k]

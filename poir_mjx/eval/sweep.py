@@ -29,7 +29,7 @@ import numpy as np
 
 from poir_mjx.core import checkpoint
 from poir_mjx.core.agent import POIR
-from poir_mjx.core.config import ConfigError, POIRConfig, apply_overrides, preset, to_dict
+from poir_mjx.core.config import ConfigError, POIRConfig, apply_overrides, check_fields, preset, to_dict
 from poir_mjx.data.robomimic import LOW_DIM_KEYS, read_transitions
 from poir_mjx.envs.env import make_env, make_params
 from poir_mjx.envs.export import atomic_write_text
@@ -82,11 +82,8 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
         raise ConfigError(f"{path}: not valid JSON ({e})") from None
     if not isinstance(raw, dict):
         raise ConfigError(f"{path}: expected a JSON object")
+    check_fields(raw, SweepConfig, str(path))
     hints = typing.get_type_hints(SweepConfig)
-    fields = {f.name for f in dataclasses.fields(SweepConfig)}
-    unknown = set(raw) - fields
-    if unknown:
-        raise ConfigError(f"{path}: unknown field(s) {sorted(unknown)}")
     kw = {}
     for k, v in raw.items():
         t = hints[k]
@@ -260,6 +257,8 @@ def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: 
         if method.online:
             # Each noise cell is its own deployment environment: fine-tune there, evaluate on the
             # cell's own episode keys (the offline cell's keys: a paired comparison).
+            tr = read_transitions(demo_path, task=task)  # the expert half of every batch, read once
+            offline = (tr.obs, tr.actions, tr.next_obs)
             for j, ((s_i, s_a), path) in enumerate(zip(grid, paths)):
                 if read_cell(path, chash):
                     bar.update(cfg.episodes)
@@ -268,7 +267,7 @@ def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: 
                 t0 = time.perf_counter()
                 slug = mname.replace(" ", "_")
                 ckpt_path = ckpt_dir / task / "online" / f"{slug}-si={s_i:g}_sa={s_a:g}_seed={seed}-{chash}.ckpt"
-                res = run_online_cell(cfg, task, agent, params, demo_path, s_i, s_a, seed, keys[sl], ckpt_path,
+                res = run_online_cell(cfg, task, agent, params, offline, s_i, s_a, seed, keys[sl], ckpt_path,
                                       chash, progress)  # fmt: skip
                 final = res.curve[-1]
                 rec = _cell_record(common, s_i, s_a, final["successes"], final["diverged"], None,
@@ -306,15 +305,17 @@ def _cell_record(common: dict, si: float, sa: float, k: int, diverged: int, leng
     return rec
 
 
-def run_online_cell(cfg: SweepConfig, task: str, agent: POIR, params, demo_path: Path, si: float, sa: float,
+def run_online_cell(cfg: SweepConfig, task: str, agent: POIR, params, offline: tuple, si: float, sa: float,
                     seed: int, eval_keys, ckpt_path: Path, chash: str, progress: bool):  # fmt: skip
-    """Online fine-tuning in the cell's environment (resumes from `ckpt_path`), evaluated on `eval_keys`."""
-    tr = read_transitions(demo_path, task=task)
+    """Online fine-tuning in the cell's environment (resumes from `ckpt_path`), evaluated on `eval_keys`.
+
+    offline: the expert transitions (obs, actions, next_obs) the agent was trained on.
+    """
     trainer = _online_trainer(task, agent, cfg.max_steps)
     key = jax.random.PRNGKey(seed)
     for x in (2, round(si * 1e6), round(sa * 1e6)):  # the cell's own stream: collection and training keys
         key = jax.random.fold_in(key, x)
-    return trainer.run(params, (tr.obs, tr.actions, tr.next_obs), make_params(si, sa), eval_keys, key,
+    return trainer.run(params, offline, make_params(si, sa), eval_keys, key,
                        checkpoint_path=ckpt_path, config_hash=chash, progress=progress)  # fmt: skip
 
 

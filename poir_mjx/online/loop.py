@@ -40,9 +40,7 @@ class RunState:
     wm: ens.TrainState  # world-model parameters and optimiser state
     buffer: rb.ReplayBuffer
     key: jax.Array
-    round: jax.Array  # finished rounds
-    env_steps: jax.Array
-    grad_steps: jax.Array
+    round: jax.Array  # finished rounds (environment and gradient steps follow from it)
 
 
 @dataclasses.dataclass
@@ -82,9 +80,6 @@ class OnlineTrainer:
     agent: POIR
     max_steps: int
 
-    def __hash__(self):
-        return hash((id(self.env), self.agent, self.max_steps))
-
     @functools.cached_property
     def collector(self):
         return make_collector(self.env, self.agent.plan, self.max_steps)
@@ -101,6 +96,11 @@ class OnlineTrainer:
     def grad_steps_per_round(self) -> int:
         return max(1, round(self.agent.config.online.updates_per_env_step * self.steps_per_round))
 
+    def counters(self, rounds) -> dict:
+        """Environment and gradient steps after `rounds` finished rounds."""
+        r = int(rounds)
+        return {"env_steps": r * self.steps_per_round, "grad_steps": r * self.grad_steps_per_round}
+
     def eval_after(self, r: int) -> bool:
         """Evaluate after round r (0-based)? At the first round end past each multiple of eval_every, and at the end."""
         every = self.agent.config.online.eval_every
@@ -111,11 +111,10 @@ class OnlineTrainer:
         cfg = self.agent.config
         opt = ens.make_optimizer(cfg.train)
         dtype = jax.tree_util.tree_leaves(params.wm)[0].dtype
-        zero = jnp.zeros((), jnp.int32)
         return RunState(
             wm=ens.init_train_state(params.wm, opt),
             buffer=rb.init(cfg.online.buffer_capacity, self.agent.obs_size, self.agent.act_size, dtype),
-            key=key, round=zero, env_steps=zero, grad_steps=zero,
+            key=key, round=jnp.zeros((), jnp.int32),
         )  # fmt: skip
 
     def run(
@@ -167,7 +166,7 @@ class OnlineTrainer:
             _, res = run_sharded(self.collector, params.replace(wm=st.wm.params), eval_keys, eval_params)
             res = jax.tree_util.tree_map(np.asarray, res)
             k = int((res["first_success"] >= 0).sum())
-            return {"env_steps": int(st.env_steps), "grad_steps": int(st.grad_steps), "successes": k,
+            return {**self.counters(st.round), "successes": k,
                     "episodes": n_eval, "success_rate": k / n_eval, "diverged": int(res["diverged"].sum()),
                     "wall_s": time.perf_counter() - t0}  # fmt: skip
 
@@ -190,13 +189,12 @@ class OnlineTrainer:
             buf = rb.add(state.buffer, *flat)
             wm, losses, frac = finetune(agent.wm_module, opt, cfg, agent.config.train.batch_size,
                                         self.grad_steps_per_round, state.wm, off_x, off_y, buf,
-                                        params.obs_norm, params.act_norm, state.grad_steps, k_train)  # fmt: skip
-            state = RunState(wm=wm, buffer=buf, key=key, round=state.round + 1,
-                             env_steps=state.env_steps + self.steps_per_round,
-                             grad_steps=state.grad_steps + self.grad_steps_per_round)  # fmt: skip
+                                        params.obs_norm, params.act_norm, state.round * self.grad_steps_per_round,
+                                        k_train)  # fmt: skip
+            state = RunState(wm=wm, buffer=buf, key=key, round=state.round + 1)
             first = np.asarray(outcome["first_success"])
             log = {
-                "round": r + 1, "env_steps": int(state.env_steps), "grad_steps": int(state.grad_steps),
+                "round": r + 1, **self.counters(state.round),
                 "collect_success_rate": float((first >= 0).mean()),
                 "valid_transitions": int(np.asarray(v).sum()),
                 "wm_error": float(np.mean(err_now)), "wm_error_offline": float(np.mean(err_off)),
