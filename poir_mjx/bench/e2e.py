@@ -16,9 +16,9 @@ from pathlib import Path
 import jax
 import numpy as np
 
+from poir_mjx.atomic import atomic_write_text
 from poir_mjx.bench.env import device_name
 from poir_mjx.envs.env import make_params
-from poir_mjx.envs.export import atomic_write_text
 from poir_mjx.eval import sweep as sw
 from poir_mjx.eval.methods import get_method
 from poir_mjx.eval.rollout import run_batch

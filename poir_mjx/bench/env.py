@@ -16,8 +16,8 @@ from pathlib import Path
 import jax
 import numpy as np
 
+from poir_mjx.atomic import atomic_write_text
 from poir_mjx.envs.env import batched, make_env, make_params
-from poir_mjx.envs.export import atomic_write_text
 from poir_mjx.envs.tasks import TASKS, make_robosuite
 
 

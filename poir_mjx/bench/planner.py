@@ -16,11 +16,11 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 
+from poir_mjx.atomic import atomic_write_text
 from poir_mjx.bench.env import device_name
 from poir_mjx.core import ensemble as ens
 from poir_mjx.core.agent import POIR, POIRParams
 from poir_mjx.core.config import PRESETS, REWARDS
-from poir_mjx.envs.export import atomic_write_text
 
 OBS, ACT = 19, 7
 

@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from poir_mjx.atomic import atomic_write_text  # noqa: F401  (re-exported for callers)
+from poir_mjx.atomic import atomic_write_text
 from poir_mjx.envs.tasks import (
     CONTROL_FREQ,
     EXPORT_SEED,

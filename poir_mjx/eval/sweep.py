@@ -27,12 +27,12 @@ from pathlib import Path
 import jax
 import numpy as np
 
+from poir_mjx.atomic import atomic_write_text
 from poir_mjx.core import checkpoint
 from poir_mjx.core.agent import POIR
 from poir_mjx.core.config import ConfigError, POIRConfig, apply_overrides, check_fields, preset, to_dict
 from poir_mjx.data.robomimic import LOW_DIM_KEYS, read_transitions
 from poir_mjx.envs.env import make_env, make_params
-from poir_mjx.envs.export import atomic_write_text
 from poir_mjx.envs.tasks import TASKS
 from poir_mjx.eval.methods import METHODS, Method, get_method
 from poir_mjx.eval.rollout import make_evaluator, run_batch
