@@ -20,6 +20,7 @@ import numpy as np
 from flax import struct
 from mujoco import mjx
 
+from poir_mjx.compat import x64_enabled
 from poir_mjx.envs import osc
 from poir_mjx.envs.tasks import check_task, task_files
 
@@ -66,9 +67,7 @@ class ModelFileError(ValueError):
 
 
 def load_model(task: str, envs_dir: str | Path | None = None) -> tuple[mujoco.MjModel, dict]:
-    """Compile envs/<task>.xml (meshes resolved in the installed robosuite) and read its metadata."""
-    from poir_mjx.envs.export import robosuite_root
-
+    """Compile envs/<task>.xml (meshes from envs/assets/, no robosuite needed) and read its metadata."""
     files = task_files(task, envs_dir)
     for f in (files.xml, files.meta):
         if not f.exists():
@@ -78,7 +77,7 @@ def load_model(task: str, envs_dir: str | Path | None = None) -> tuple[mujoco.Mj
     except json.JSONDecodeError as e:
         raise ModelFileError(f"{files.meta}: not valid JSON ({e})") from e
     spec = mujoco.MjSpec.from_string(files.xml.read_text())
-    spec.meshdir = str(robosuite_root()) + "/"
+    spec.meshdir = str(files.xml.parent.resolve()) + "/"
     try:
         model = spec.compile()
     except Exception as e:  # mujoco raises ValueError with the parser's message
@@ -369,18 +368,30 @@ class TaskEnv:
         )
 
 
-@functools.lru_cache(maxsize=None)
 def make_env(task: str, envs_dir: str | None = None) -> TaskEnv:
-    """The MJX environment for `task` (one of poir_mjx.envs.tasks.TASKS)."""
+    """The MJX environment for `task` (one of poir_mjx.envs.tasks.TASKS), in the current float precision.
+
+    The MJX model's arrays take jax's default float (float64 inside ``compat.enable_x64()``), so one
+    environment is kept per task and precision.
+    """
+    return _make_env(task, envs_dir, x64_enabled())
+
+
+@functools.lru_cache(maxsize=None)
+def _make_env(task: str, envs_dir: str | None, x64: bool) -> TaskEnv:
     check_task(task)
     mj_model, meta = load_model(task, envs_dir)
     return TaskEnv(task=task, mj_model=mj_model, model=mjx.put_model(mj_model), meta=meta)
 
 
-@functools.lru_cache(maxsize=None)
 def batched(task: str, envs_dir: str | None = None):
     """(reset, reset_to, step) jitted and vmapped over episodes; one compilation per batch shape."""
-    env = make_env(task, envs_dir)
+    return _batched(task, envs_dir, x64_enabled())
+
+
+@functools.lru_cache(maxsize=None)
+def _batched(task: str, envs_dir: str | None, x64: bool):
+    env = _make_env(task, envs_dir, x64)
     return (
         jax.jit(jax.vmap(env.reset)),
         jax.jit(jax.vmap(env.reset_to)),

@@ -16,8 +16,9 @@ The edits are deterministic and each one is listed, with its reason, in ``envs/R
    markers; NutAssemblySquare's round nut) that robosuite keeps far away at (10, 10, 10);
 5. replace colliding cylinders (Square's pegs) and the 2868-vertex can mesh by 16-sided convex
    prisms (MJX lacks cylinder-box/mesh collisions; fewer vertices keep convex collision cheap);
-6. mesh files are referenced relative to the installed robosuite package and resolved there
-   at load time (no asset copies in the repository, byte-identical output on every machine);
+6. the few mesh files the models still reference (the Panda finger) are copied into
+   ``envs/assets/`` with robosuite's licence and referenced relative to ``envs/``, so loading a
+   model needs no robosuite (byte-identical output on every machine);
 7. the hand's (palm's) collision mesh becomes its bounding box in the mesh frame: MJX's
    mesh-box contact with the nut's thin walls produced a spurious impulse that launched the nut.
 """
@@ -32,8 +33,9 @@ from pathlib import Path
 
 import numpy as np
 
-from poir_mjx.atomic import atomic_write_text
+from poir_mjx.atomic import atomic_write_bytes, atomic_write_text
 from poir_mjx.envs.tasks import (
+    ASSETS_DIR,
     CONTROL_FREQ,
     EXPORT_SEED,
     HORIZON,
@@ -59,9 +61,25 @@ DROP_COLLISION_PREFIXES = ("robot0_link", "fixed_mount0_", "robot0_base", "mount
 
 
 def robosuite_root() -> Path:
-    import robosuite
+    from poir_mjx.optional import require_robosuite
 
-    return Path(robosuite.__file__).resolve().parent
+    return Path(require_robosuite("exporting the tasks (make envs)").__file__).resolve().parent
+
+
+def robosuite_assets() -> Path:
+    """robosuite's models/assets/ folder: exported mesh paths are relative to it, under envs/assets/."""
+    return robosuite_root() / "models" / "assets"
+
+
+def robosuite_license() -> str:
+    """robosuite's licence text (from its installed distribution), shipped beside the copied assets."""
+    from importlib.metadata import distribution
+
+    dist = distribution("robosuite")
+    for f in dist.files or ():
+        if f.name == "LICENSE":
+            return f.read_text()
+    raise RuntimeError("robosuite's LICENSE file is not in its installed distribution")
 
 
 def _fmt(x) -> list:
@@ -162,11 +180,13 @@ def build_spec(task: str):
     import mujoco
 
     check_task(task)
+    robosuite_root()  # a clear error first if robosuite is missing
     env = make_robosuite(task, seed=EXPORT_SEED)
     env.reset()
     m0 = env.sim.model._model
     xml = env.sim.model.get_xml()
     root = str(robosuite_root()) + "/"
+    assets = str(robosuite_assets()) + "/"
     spec = mujoco.MjSpec.from_string(xml)
     spec.meshdir = root
 
@@ -235,9 +255,11 @@ def build_spec(task: str):
             spec.delete(mesh)
         elif mesh.file:
             f = str(Path(spec.meshdir, mesh.file)) if not os.path.isabs(mesh.file) else mesh.file
-            if not f.startswith(root):
-                raise RuntimeError(f"{task}: mesh {mesh.name} file {f} is outside the robosuite package")
-            mesh.file = f[len(root) :]
+            if not f.startswith(assets):
+                raise RuntimeError(f"{task}: mesh {mesh.name} file {f} is outside robosuite's models/assets")
+            mesh.file = f"{ASSETS_DIR}/{f[len(assets):]}"
+    # "assets/..." resolves in robosuite's models/ folder here, in envs/ once exported.
+    spec.meshdir = str(robosuite_assets().parent) + "/"
     for mat in list(spec.materials):
         spec.delete(mat)
     for tex in list(spec.textures):
@@ -273,12 +295,28 @@ def export_task(task: str) -> tuple[str, str]:
     spec, meta, _ = build_spec(task)
     spec.compile()  # fails loudly if an edit broke the model
     xml = spec.to_xml()
-    # Mesh files are resolved against the installed robosuite package by load_model (edit 6).
+    # Mesh files are resolved against envs/ by load_model (edit 6).
     marker = f' meshdir="{spec.meshdir}"'
     if xml.count(marker) != 1:
         raise RuntimeError(f"{task}: expected one compiler meshdir attribute in the exported XML")
     xml = xml.replace(marker, "")
     return xml, json.dumps(meta, indent=2, sort_keys=True) + "\n"
+
+
+def referenced_assets(xml: str) -> list[str]:
+    """The asset files (paths relative to envs/) an exported model references."""
+    import re
+
+    return sorted(set(re.findall(rf'file="({ASSETS_DIR}/[^"]+)"', xml)))
+
+
+def asset_files(xmls: list[str]) -> dict[str, bytes]:
+    """{path relative to envs/: bytes} of every asset the models reference, plus robosuite's licence."""
+    src = robosuite_assets()
+    out = {f"{ASSETS_DIR}/LICENSE-robosuite": robosuite_license().encode()}
+    for rel in sorted({r for x in xmls for r in referenced_assets(x)}):
+        out[rel] = (src / rel[len(ASSETS_DIR) + 1 :]).read_bytes()
+    return out
 
 
 def main(argv=None) -> int:
@@ -287,14 +325,22 @@ def main(argv=None) -> int:
     p.add_argument("--task", action="append", choices=TASKS, help="task to export (default: all)")
     p.add_argument("--check", action="store_true", help="only export the tasks whose files are missing")
     args = p.parse_args(argv)
+    xmls = []
     for task in args.task or TASKS:
         files = task_files(task, args.out)
         if args.check and files.xml.exists() and files.meta.exists():
+            xmls.append(files.xml.read_text())
             continue
         xml, meta = export_task(task)
         atomic_write_text(files.xml, xml)
         atomic_write_text(files.meta, meta)
+        xmls.append(xml)
         print(f"wrote {files.xml} and {files.meta}")
+    missing = [r for x in xmls for r in referenced_assets(x) if not (Path(args.out) / r).exists()]
+    if not args.check or missing or not (Path(args.out) / ASSETS_DIR / "LICENSE-robosuite").exists():
+        for rel, data in asset_files(xmls).items():
+            atomic_write_bytes(Path(args.out) / rel, data)
+        print(f"wrote {Path(args.out) / ASSETS_DIR}/ (meshes referenced by the models, robosuite's licence)")
     return 0
 
 

@@ -35,6 +35,8 @@ EXPORT_SEED = 0
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_ENVS_DIR = REPO_ROOT / "envs"
+# Mesh files the exported models reference, copied from robosuite's models/assets/ (with its licence).
+ASSETS_DIR = "assets"
 
 
 class UnknownTaskError(ValueError):
@@ -61,6 +63,9 @@ def task_files(task: str, envs_dir: Path | str | None = None) -> TaskFiles:
 
 def robosuite_kwargs(seed: int | None = EXPORT_SEED) -> dict:
     """robomimic's settings for the low-dim datasets: Panda, OSC_POSE (BASIC composite), 20 Hz, full physics."""
+    from poir_mjx.optional import require_robosuite
+
+    require_robosuite("building a robosuite environment")
     from robosuite.controllers import load_composite_controller_config
 
     return dict(
@@ -86,7 +91,9 @@ def make_robosuite(task: str, seed: int | None = EXPORT_SEED, initialization_noi
     import numpy as np
 
     check_task(task)
-    import robosuite as suite
+    from poir_mjx.optional import require_robosuite
+
+    suite = require_robosuite("building a robosuite environment")
 
     # robosuite logs every unused controller part of its composite config as a warning.
     logging.getLogger("robosuite_logs").setLevel(logging.ERROR)

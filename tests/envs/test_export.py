@@ -1,6 +1,7 @@
 """`make envs` is deterministic and matches the committed files; the exported models load in MJX."""
 
 import json
+import shutil
 
 import mujoco
 import pytest
@@ -10,12 +11,24 @@ from poir_mjx.envs.env import load_model
 from poir_mjx.envs.tasks import TASKS, UnknownTaskError, task_files
 
 
+@pytest.mark.needs_robosuite
 @pytest.mark.parametrize("task", TASKS)
 def test_export_is_byte_identical_to_committed_files(task):
     xml, meta = export.export_task(task)
     files = task_files(task)
     assert xml == files.xml.read_text(), f"{files.xml} differs from a fresh export: run `make envs`"
     assert meta == files.meta.read_text(), f"{files.meta} differs from a fresh export: run `make envs`"
+
+
+@pytest.mark.needs_robosuite
+def test_shipped_assets_are_robosuites_files():
+    xmls = [task_files(t).xml.read_text() for t in TASKS]
+    shipped = export.asset_files(xmls)
+    assert "assets/grippers/meshes/panda_gripper/finger.stl" in shipped
+    assert "MIT License" in shipped["assets/LICENSE-robosuite"].decode()
+    for rel, data in shipped.items():
+        f = task_files("lift").xml.parent / rel
+        assert f.read_bytes() == data, f"{f} differs from robosuite's file: run `make envs`"
 
 
 @pytest.mark.parametrize("task", TASKS)
@@ -41,6 +54,7 @@ def test_unknown_task_is_a_clear_error():
 
 
 def test_broken_metadata_names_the_file(tmp_path):
+    shutil.copytree(task_files("lift").xml.parent / "assets", tmp_path / "assets")
     for task in ("lift",):
         f = task_files(task)
         (tmp_path / f.xml.name).write_text(f.xml.read_text())
