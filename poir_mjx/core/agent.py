@@ -7,6 +7,9 @@ Written once for every size: the ``cpu-small`` and ``paper`` presets differ only
 - ``plan(params, obs, key) -> action`` is the paper's SelectAction: N trajectories, horizon H,
   trajectory n keeps head n mod K for prior and model, reward r_IL(s_t, a_t) summed over
   t = 1..H (s_1 the real state), top-k average of the first actions, clipped to the bounds.
+
+Networks, planner and rewards run in float32 whatever ``jax_enable_x64`` is (MJX physics may run
+in float64): observations are cast to float32 on entry and actions come back in float32.
 """
 
 from __future__ import annotations
@@ -98,8 +101,8 @@ class POIR:
 
     # ------------------------------------------------------------------ policies
     def _act_bounds(self, params):
-        lo = params.act_norm(jnp.full(self.act_size, self.config.action_low))
-        hi = params.act_norm(jnp.full(self.act_size, self.config.action_high))
+        lo = params.act_norm(jnp.full(self.act_size, self.config.action_low, jnp.float32))
+        hi = params.act_norm(jnp.full(self.act_size, self.config.action_high, jnp.float32))
         return lo, hi
 
     def _to_env_action(self, params, a_norm):
@@ -107,11 +110,12 @@ class POIR:
 
     def bc_action(self, params: POIRParams, obs: jax.Array) -> jax.Array:
         """Plain BC: the first network of the ensemble."""
-        return self._to_env_action(params, self.bc_module.apply(jax.tree_util.tree_map(lambda p: p[0], params.bc), params.obs_norm(obs)))
+        s = params.obs_norm(jnp.asarray(obs, jnp.float32))
+        return self._to_env_action(params, self.bc_module.apply(jax.tree_util.tree_map(lambda p: p[0], params.bc), s))
 
     def ebc_action(self, params: POIRParams, obs: jax.Array) -> jax.Array:
         """Ensemble BC: the mean of the K networks' actions."""
-        a = ens.apply_all(self.bc_module, params.bc, params.obs_norm(obs)).mean(0)
+        a = ens.apply_all(self.bc_module, params.bc, params.obs_norm(jnp.asarray(obs, jnp.float32))).mean(0)
         return self._to_env_action(params, a)
 
     # ------------------------------------------------------------------ planner
@@ -136,7 +140,7 @@ class POIR:
         pc = self.config.planner
         k, m = self.head_layout()
         lo, hi = self._act_bounds(params)
-        s0 = jnp.broadcast_to(params.obs_norm(obs), (k, m, self.obs_size))
+        s0 = jnp.broadcast_to(params.obs_norm(jnp.asarray(obs, jnp.float32)), (k, m, self.obs_size))
         keys = jax.random.split(key, pc.horizon)
 
         def body(carry, xs):
@@ -144,30 +148,32 @@ class POIR:
             t, kt = xs
             if pc.use_prior:
                 prior = ens.apply_each(self.bc_module, params.bc, s)
-                a = prior + pc.sigma * jax.random.normal(kt, prior.shape)
+                a = prior + pc.sigma * jax.random.normal(kt, prior.shape, jnp.float32)
             else:
-                a = jax.random.uniform(kt, (k, m, self.act_size), minval=lo, maxval=hi)
-            a = jnp.clip(a, lo, hi).astype(dt)
-            ret = ret + self.trajectory_rewards(params, s, a).astype(dt)
-            s_next = s + ens.apply_each(self.wm_module, params.wm, jnp.concatenate([s, a], -1)).astype(dt)
-            first = jnp.where(t == 0, a, first).astype(dt)
+                a = jax.random.uniform(kt, (k, m, self.act_size), jnp.float32, minval=lo, maxval=hi)
+            a = jnp.clip(a, lo, hi)
+            ret = ret + self.trajectory_rewards(params, s, a)
+            s_next = s + ens.apply_each(self.wm_module, params.wm, jnp.concatenate([s, a], -1))
+            first = jnp.where(t == 0, a, first)
             return (s_next, ret, first), None
 
-        dt = s0.dtype
-        init = (s0, jnp.zeros((k, m), dt), jnp.zeros((k, m, self.act_size), dt))
+        init = (s0, jnp.zeros((k, m), jnp.float32), jnp.zeros((k, m, self.act_size), jnp.float32))
         (_, ret, first), _ = jax.lax.scan(body, init, (jnp.arange(pc.horizon), keys))
         n = jnp.arange(k)[:, None] + k * jnp.arange(m)[None, :]
         ret = jnp.where(n < pc.num_trajectories, ret, -jnp.inf)
         return ret, first
 
     def plan(self, params: POIRParams, obs: jax.Array, key: jax.Array) -> jax.Array:
-        """SelectAction: the mean first action of the top-k imagined trajectories, in env units."""
+        """SelectAction: the mean first action of the top-k imagined trajectories, in env units (float32)."""
         ret, first = self.rollouts(params, obs, key)
         a = top_k_mean(ret.reshape(-1), first.reshape(-1, self.act_size), self.config.planner.top_k)
         return self._to_env_action(params, a)
 
 
 def top_k_mean(returns: jax.Array, actions: jax.Array, k: int) -> jax.Array:
-    """Mean of the actions of the k largest returns (k = 1: argmax). returns [N], actions [N, d]."""
-    _, top = jax.lax.top_k(returns, k)
+    """Mean of the actions of the k largest returns (k = 1: argmax). returns [N], actions [N, d].
+
+    NaN returns rank last (as -inf): ``lax.top_k`` would rank them first.
+    """
+    _, top = jax.lax.top_k(jnp.where(jnp.isnan(returns), -jnp.inf, returns), k)
     return actions[top].mean(0)

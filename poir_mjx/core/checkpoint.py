@@ -1,7 +1,7 @@
 """Checkpoints: parameters, normalisation statistics, the config and the observation layout, in one file.
 
 Format: msgpack (flax.serialization) of {"format", "config" (JSON), "layout" (JSON), "params"}.
-Writes go to a temporary file in the same folder, then an atomic rename.
+Writes go to a temporary file in the same folder, then an atomic rename. Loaded parameters are float32.
 """
 
 from __future__ import annotations
@@ -97,7 +97,7 @@ def load(path: str | Path, config: POIRConfig | None = None, layout: dict | None
         act_norm=Normalizer(raw["act_norm"]["mean"], raw["act_norm"]["std"]),
         expert_states=raw["expert_states"],
     )
-    params = jax.tree_util.tree_map(jax.numpy.asarray, params)
+    params = jax.tree_util.tree_map(lambda x: jax.numpy.asarray(x, jax.numpy.float32), params)
     return agent, params, ck_layout
 
 

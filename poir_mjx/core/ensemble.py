@@ -1,7 +1,8 @@
 """Ensembles of MLPs as one set of stacked parameters, applied and trained with ``vmap``.
 
 Every member has its own initialisation and its own minibatch order. One SGD epoch is one
-compiled function (``lax.scan`` over minibatches, ``vmap`` over members).
+compiled function (``lax.scan`` over minibatches, ``vmap`` over members). Parameters, inputs and
+computation are float32 whatever ``jax_enable_x64`` is.
 """
 
 from __future__ import annotations
@@ -29,8 +30,8 @@ class MLP(nn.Module):
     @nn.compact
     def __call__(self, x):
         for _ in range(self.layers - 1):
-            x = _ACT[self.activation](nn.Dense(self.width)(x))
-        return nn.Dense(self.out)(x)
+            x = _ACT[self.activation](nn.Dense(self.width, dtype=jnp.float32, param_dtype=jnp.float32)(x))
+        return nn.Dense(self.out, dtype=jnp.float32, param_dtype=jnp.float32)(x)
 
 
 def make_mlp(cfg: MLPConfig, out: int) -> MLP:
@@ -39,7 +40,7 @@ def make_mlp(cfg: MLPConfig, out: int) -> MLP:
 
 def init_ensemble(module: nn.Module, key: jax.Array, k: int, in_size: int) -> Any:
     """K independent initialisations, stacked on a leading axis."""
-    return jax.vmap(lambda kk: module.init(kk, jnp.zeros((1, in_size))))(jax.random.split(key, k))
+    return jax.vmap(lambda kk: module.init(kk, jnp.zeros((1, in_size), jnp.float32)))(jax.random.split(key, k))
 
 
 def ensemble_size(params) -> int:
@@ -58,7 +59,7 @@ def apply_each(module: nn.Module, params, x: jax.Array) -> jax.Array:
 
 @struct.dataclass
 class Normalizer:
-    """Mean/std normalisation from the expert data (identity when disabled)."""
+    """Mean/std normalisation from the expert data (identity when disabled); float32 in and out."""
 
     mean: jax.Array
     std: jax.Array
@@ -67,14 +68,19 @@ class Normalizer:
     def fit(x: jax.Array, enabled: bool = True, eps: float = 1e-6) -> Normalizer:
         x = jnp.asarray(x, jnp.float32)
         if not enabled:
-            return Normalizer(jnp.zeros(x.shape[-1]), jnp.ones(x.shape[-1]))
+            return Normalizer(jnp.zeros(x.shape[-1], jnp.float32), jnp.ones(x.shape[-1], jnp.float32))
         return Normalizer(x.mean(0), jnp.maximum(x.std(0), eps))
 
+    def _stats(self):
+        return jnp.asarray(self.mean, jnp.float32), jnp.asarray(self.std, jnp.float32)
+
     def __call__(self, x):
-        return (x - self.mean) / self.std
+        mean, std = self._stats()
+        return (jnp.asarray(x, jnp.float32) - mean) / std
 
     def inverse(self, z):
-        return z * self.std + self.mean
+        mean, std = self._stats()
+        return jnp.asarray(z, jnp.float32) * std + mean
 
 
 class TrainState(NamedTuple):
@@ -93,6 +99,7 @@ def init_train_state(params, optimizer) -> TrainState:
 @functools.partial(jax.jit, static_argnames=("module", "optimizer", "batch_size"))
 def train_epoch(module, optimizer, batch_size: int, state: TrainState, x, y, key):
     """One epoch of MSE regression x -> y for every member (own shuffle each); returns (state, mean loss [K])."""
+    x, y = jnp.asarray(x, jnp.float32), jnp.asarray(y, jnp.float32)
     k = ensemble_size(state.params)
     n = x.shape[0]
     if n < batch_size:

@@ -1,6 +1,6 @@
 """The paper's three imitation rewards (higher = closer to the expert's support).
 
-All distances are Euclidean, in the (normalised) spaces the agent works in.
+All distances are Euclidean, in the (normalised) spaces the agent works in, computed in float32.
 """
 
 from __future__ import annotations
@@ -12,13 +12,15 @@ import jax.numpy as jnp
 def l2_reward(states: jax.Array, expert: jax.Array, chunk: int = 4096) -> jax.Array:
     """-min_e ||s - e||_2 for every query state (exact), scanning the expert states in chunks.
 
-    states [Q, d], expert [E, d] -> [Q]. Memory is O(Q * chunk) whatever E is.
+    states [Q, d], expert [E, d] -> [Q]. Memory is O(Q * chunk) whatever E is. The matmul runs at
+    full float32 precision (Precision.HIGHEST; GPUs default to TF32).
     """
+    states, expert = jnp.asarray(states, jnp.float32), jnp.asarray(expert, jnp.float32)
     e_count = expert.shape[0]
     chunk = min(chunk, e_count)
     n_chunks = -(-e_count // chunk)
     pad = n_chunks * chunk - e_count
-    ex = jnp.concatenate([expert, jnp.zeros((pad, expert.shape[1]), expert.dtype)])
+    ex = jnp.concatenate([expert, jnp.zeros((pad, expert.shape[1]), jnp.float32)])
     valid = jnp.arange(n_chunks * chunk) < e_count
     ex = ex.reshape(n_chunks, chunk, -1)
     valid = valid.reshape(n_chunks, chunk)
@@ -26,11 +28,11 @@ def l2_reward(states: jax.Array, expert: jax.Array, chunk: int = 4096) -> jax.Ar
 
     def body(best, xs):
         e, ok = xs
-        d2 = s2[:, None] - 2.0 * states @ e.T + jnp.sum(e**2, -1)[None, :]
+        d2 = s2[:, None] - 2.0 * jnp.matmul(states, e.T, precision=jax.lax.Precision.HIGHEST) + jnp.sum(e**2, -1)[None, :]
         d2 = jnp.where(ok[None, :], d2, jnp.inf)
         return jnp.minimum(best, d2.min(-1)), None
 
-    best, _ = jax.lax.scan(body, jnp.full(states.shape[0], jnp.inf, states.dtype), (ex, valid))
+    best, _ = jax.lax.scan(body, jnp.full(states.shape[0], jnp.inf, jnp.float32), (ex, valid))
     return -jnp.sqrt(jnp.maximum(best, 0.0))
 
 
