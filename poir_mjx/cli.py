@@ -79,6 +79,7 @@ def main(argv=None) -> int:
     ep.add_argument("--episodes", type=int, default=10)
     ep.add_argument("--max-steps", type=int, default=400)
     ep.add_argument("--seed", type=int, default=0)
+    ep.add_argument("--device", default="any", choices=["any", "cpu", "gpu"], help="gpu: fail unless jax sees a GPU")
     args, rest = p.parse_known_args(argv)
 
     from poir_mjx.core.checkpoint import CheckpointError
@@ -87,6 +88,8 @@ def main(argv=None) -> int:
     from poir_mjx.envs.env import ModelFileError
     from poir_mjx.envs.tasks import UnknownTaskError
     from poir_mjx.eval.methods import UnknownMethodError
+    from poir_mjx.devices import DeviceError, select_device
+    from poir_mjx.optional import MissingDependencyError
 
     try:
         if args.command == "envs":
@@ -112,18 +115,21 @@ def main(argv=None) -> int:
                 raise ConfigError("--episodes and --max-steps must be positive")
             if min(args.sigma_init + args.sigma_action) < 0:
                 raise ConfigError("--sigma-init/--sigma-action: noise levels must be >= 0")
+            select_device(args.device, "--device")
             return _eval(args)
         from poir_mjx.eval.sweep import load_sweep_config, run_sweep
 
         cfg = load_sweep_config(args.config)
         import jax
 
+        select_device(cfg.device, f"{args.config}: field 'device'")
         jax.config.update("jax_enable_x64", cfg.x64)  # before any array exists
         out = run_sweep(cfg, args.results, args.data, args.checkpoints)
         print((out / "summary.md").read_text())
         print(f"sweep {cfg.name}: tables in {out}/ (summary.md, <task>.md/.csv/.png)")
         return 0
-    except (ConfigError, CheckpointError, DatasetError, ModelFileError, UnknownTaskError, UnknownMethodError) as e:
+    except (ConfigError, CheckpointError, DatasetError, ModelFileError, UnknownTaskError, UnknownMethodError,
+            MissingDependencyError, DeviceError) as e:  # fmt: skip
         print(f"error: {e}", file=sys.stderr)
         return 2
 

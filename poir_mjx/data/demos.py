@@ -1,10 +1,12 @@
 """``make demos``: scripted-expert demonstrations in robomimic's HDF5 layout, and the expert's success rate.
 
     python -m poir_mjx.data.demos generate --tasks lift --num 200      # -> data/demos/<task>.hdf5
+    python -m poir_mjx.data.demos generate --simulator mjx --batch 256 # -> data/demos/<task>-mjx.hdf5
     python -m poir_mjx.data.demos success --simulator robosuite --episodes 100
 
-Demonstrations are recorded in robosuite (MuJoCo C, as robomimic's were) at sigma_init 0.02 with
-no action noise, keeping only successful episodes. A file that already holds the requested
+Demonstrations are recorded at sigma_init 0.02 with no action noise, keeping only successful
+episodes, either in robosuite (MuJoCo C, as robomimic's were; needs robosuite) or in MJX
+(vectorised, ``mjx_demos.py``; no robosuite). A file that already holds the requested
 demonstrations with the same generator settings is left alone (``make demos`` skips done work).
 """
 
@@ -21,31 +23,27 @@ import numpy as np
 
 from poir_mjx.atomic import atomic_write_text
 from poir_mjx.data import expert as ex
+from poir_mjx.data import mjx_demos
 from poir_mjx.data.robomimic import ENV_NAMES, write_robomimic
 from poir_mjx.data.rollout import EXPERT_STEPS, robosuite_episode
 from poir_mjx.envs.env import make_env, make_params
 from poir_mjx.envs.tasks import TASKS, make_robosuite, robosuite_kwargs
+from poir_mjx.optional import require_robosuite
 
 DEFAULT_DIR = Path("data/demos")
+SIMULATORS = ("robosuite", "mjx")
 
 
 def generator_info(task: str, num: int, seed: int, sigma_init: float) -> dict:
     import mujoco
-    import robosuite
 
-    return {
-        "expert": ex.NAME,
-        "simulator": f"robosuite {robosuite.__version__} (MuJoCo {mujoco.__version__})",
-        "task": task,
-        "num_demos": num,
-        "seed": seed,
-        "sigma_init": sigma_init,
-        "sigma_action": 0.0,
-    }
+    robosuite = require_robosuite("recording demos in robosuite")
+    simulator = f"robosuite {robosuite.__version__} (MuJoCo {mujoco.__version__})"
+    return ex.generator_record(task, num, seed, sigma_init, simulator)
 
 
 def env_args(task: str, sigma_init: float) -> dict:
-    import robosuite
+    robosuite = require_robosuite("recording demos in robosuite")
 
     kw = {k: v for k, v in robosuite_kwargs(None).items() if k not in ("seed",)}
     kw["robots"] = ["Panda"]
@@ -53,8 +51,8 @@ def env_args(task: str, sigma_init: float) -> dict:
     return {"env_name": ENV_NAMES[task], "type": 1, "env_version": robosuite.__version__, "env_kwargs": kw}
 
 
-def demo_path(task: str, out: Path) -> Path:
-    return Path(out) / f"{task}.hdf5"
+def demo_path(task: str, out: Path, simulator: str = "robosuite") -> Path:
+    return Path(out) / (f"{task}.hdf5" if simulator == "robosuite" else f"{task}-{simulator}.hdf5")
 
 
 def existing_matches(path: Path, info: dict) -> bool:
@@ -69,13 +67,23 @@ def existing_matches(path: Path, info: dict) -> bool:
         return False
 
 
-def generate(task: str, num: int, seed: int, sigma_init: float, out: Path, progress: bool = True) -> Path:
+def generate(task: str, num: int, seed: int, sigma_init: float, out: Path, progress: bool = True,
+             simulator: str = "robosuite", batch: int = 16) -> Path:  # fmt: skip
+    """Make (or reuse) `num` successful expert demos of `task` recorded in `simulator`; returns the file."""
     from tqdm import tqdm
 
-    path = demo_path(task, out)
-    info = generator_info(task, num, seed, sigma_init)
+    if simulator not in SIMULATORS:
+        raise ValueError(f"simulator: expected one of {', '.join(SIMULATORS)}, got {simulator!r}")
+    path = demo_path(task, out, simulator)
+    info_fn = mjx_demos.generator_info if simulator == "mjx" else generator_info
+    info = info_fn(task, num, seed, sigma_init)
     if existing_matches(path, info):
         print(f"{path}: already holds {num} demos from the same generator settings; skipped")
+        return path
+    if simulator == "mjx":
+        st = mjx_demos.generate_mjx(task, num, seed, sigma_init, path, batch=batch, progress=progress)
+        print(f"wrote {path}: {num} demos (MJX), success {num}/{st['episodes_tried']} tried, length mean "
+              f"{st['length_mean']:.0f} min {st['length_min']} max {st['length_max']}, {st['seconds']:.0f} s")  # fmt: skip
         return path
     env = make_robosuite(task, seed=seed, initialization_noise={"magnitude": sigma_init, "type": "gaussian"})
     model_xml = env.sim.model.get_xml()
@@ -178,6 +186,9 @@ def main(argv=None) -> int:
     g.add_argument("--seed", type=int, default=0)
     g.add_argument("--sigma-init", type=float, default=0.02)
     g.add_argument("--out", type=Path, default=DEFAULT_DIR)
+    g.add_argument("--simulator", default="robosuite", choices=SIMULATORS,
+                   help="robosuite (MuJoCo C, needs robosuite) or mjx (vectorised; -> <task>-mjx.hdf5)")
+    g.add_argument("--batch", type=int, default=16, help="MJX episodes per compiled batch (GPU: 256-1024)")
     s = sub.add_parser("success", help="measure the expert's success rate and write a table")
     s.add_argument("--tasks", nargs="+", default=list(TASKS), choices=TASKS)
     s.add_argument("--simulator", nargs="+", default=["robosuite"], choices=["robosuite", "mjx"])
@@ -187,10 +198,10 @@ def main(argv=None) -> int:
     s.add_argument("--out", type=Path, default=Path("results/expert"))
     args = p.parse_args(argv)
     if args.cmd == "generate":
-        if args.num <= 0:
-            p.error("--num: must be positive")
+        if args.num <= 0 or args.batch <= 0:
+            p.error("--num and --batch: must be positive")
         for task in args.tasks:
-            generate(task, args.num, args.seed, args.sigma_init, args.out)
+            generate(task, args.num, args.seed, args.sigma_init, args.out, simulator=args.simulator, batch=args.batch)
         return 0
     rows = []
     for task in args.tasks:

@@ -25,6 +25,12 @@ from flax import struct
 NAME = "poir-mjx scripted expert v1"
 
 
+def generator_record(task: str, num: int, seed: int, sigma_init: float, simulator: str) -> dict:
+    """What identifies a demo file made by this expert (stored in it; equal records mean equal settings)."""
+    return {"expert": NAME, "simulator": simulator, "task": task, "num_demos": num, "seed": seed,
+            "sigma_init": sigma_init, "sigma_action": 0.0}  # fmt: skip
+
+
 @dataclasses.dataclass(frozen=True)
 class ExpertTask:
     task: str

@@ -61,6 +61,13 @@ class SweepConfig:
     """Control steps per episode (robosuite's horizon is 400)."""
     num_demos: int = 200
     """Scripted-expert demonstrations per task (ignored for tasks given in demo_files)."""
+    demo_simulator: str = "robosuite"
+    """Where the scripted expert records its demos: "robosuite" (MuJoCo C, needs robosuite) or "mjx"
+    (vectorised in MJX, no robosuite: the path for a GPU machine)."""
+    demo_batch: int = 16
+    """MJX episodes per compiled batch when demo_simulator is "mjx" (GPU: 256-1024)."""
+    device: str = "any"
+    """"gpu" refuses to run unless jax sees a GPU (no silent CPU run), "cpu" forces the CPU, "any" takes jax's default."""
     demo_files: dict = dataclasses.field(default_factory=dict)
     """Optional {task: path} of robomimic HDF5 files to use instead of the scripted expert."""
     epochs: int = 0
@@ -68,7 +75,7 @@ class SweepConfig:
     overrides: dict = dataclasses.field(default_factory=dict)
     """Dotted POIR config fields replacing the preset's values, e.g. {"online.total_env_steps": 20000}."""
     x64: bool = False
-    """Run MJX (and the networks) in float64: slower, but float32 once launched Square's nut mid-grasp."""
+    """MJX physics in float64 (float32 once launched Square's nut mid-grasp); networks and planner stay float32."""
 
 
 def load_sweep_config(path: str | Path) -> SweepConfig:
@@ -119,7 +126,11 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
     for fld in ("sigma_init", "sigma_action"):
         if any(x < 0 for x in getattr(cfg, fld)):
             raise ConfigError(f"{path}: field '{fld}': noise levels must be >= 0")
-    for fld in ("episodes", "max_steps", "num_demos"):
+    if cfg.demo_simulator not in ("robosuite", "mjx"):
+        raise ConfigError(f"{path}: field 'demo_simulator' must be \"robosuite\" or \"mjx\", got {cfg.demo_simulator!r}")
+    if cfg.device not in ("any", "cpu", "gpu"):
+        raise ConfigError(f"{path}: field 'device' must be \"any\", \"cpu\" or \"gpu\", got {cfg.device!r}")
+    for fld in ("episodes", "max_steps", "num_demos", "demo_batch"):
         if getattr(cfg, fld) <= 0:
             raise ConfigError(f"{path}: field '{fld}' must be positive")
     try:
@@ -165,7 +176,8 @@ def demos_for(cfg: SweepConfig, task: str, data_dir: Path) -> tuple[Path, dict]:
         return path, {"source": "file", "path": str(path)}
     from poir_mjx.data.demos import generate
 
-    path = generate(task, cfg.num_demos, seed=0, sigma_init=0.02, out=data_dir)
+    path = generate(task, cfg.num_demos, seed=0, sigma_init=0.02, out=data_dir, simulator=cfg.demo_simulator,
+                    batch=cfg.demo_batch)  # fmt: skip
     tr = read_transitions(path, task=task, max_demos=1)
     return path, {"source": "scripted expert", **tr.provenance.get("poir_mjx_generator", {})}
 
@@ -216,6 +228,7 @@ def cell_hash(cfg: SweepConfig, task: str, method: str) -> str:
         "max_steps": cfg.max_steps,
         "num_demos": cfg.num_demos,
         "demo_file": cfg.demo_files.get(task),
+        **({"demo_simulator": cfg.demo_simulator} if cfg.demo_simulator != "robosuite" else {}),
         "x64": cfg.x64,
     }
     return _hash(relevant)

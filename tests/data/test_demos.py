@@ -4,12 +4,14 @@ import h5py
 import json
 
 import numpy as np
+import pytest
 
 from poir_mjx.data.demos import generate
 from poir_mjx.data.robomimic import read_transitions
 from poir_mjx.data.rollout import robosuite_episode
 
 
+@pytest.mark.needs_robosuite
 def test_expert_lifts_the_cube_in_robosuite():
     results = [robosuite_episode("lift", seed) for seed in range(3)]
     assert all(ok for _, ok, _, _ in results)
@@ -18,6 +20,7 @@ def test_expert_lifts_the_cube_in_robosuite():
     assert demo.obs["object"].shape == (demo.actions.shape[0], 10)
 
 
+@pytest.mark.needs_robosuite
 def test_generate_writes_a_valid_robomimic_file_and_skips_done_work(tmp_path, capsys):
     path = generate("lift", num=2, seed=0, sigma_init=0.02, out=tmp_path, progress=False)
     tr = read_transitions(path, task="lift")

@@ -75,3 +75,32 @@ def test_malformed_config_names_the_field(tmp_path, patch, match):
     f.write_text(json.dumps(raw))
     with pytest.raises(ConfigError, match=r"bad\.json: " + match):
         load_sweep_config(f)
+
+
+def test_new_sweep_fields_are_validated(tmp_path):
+    base = {"name": "x", "tasks": ["lift"], "methods": ["EBC"]}
+    for field, value, msg in (("demo_simulator", "gazebo", "field 'demo_simulator'"),
+                              ("device", "tpu", "field 'device'"), ("demo_batch", 0, "field 'demo_batch'")):  # fmt: skip
+        f = tmp_path / f"{field}.json"
+        f.write_text(json.dumps({**base, field: value}))
+        with pytest.raises(ConfigError, match=msg):
+            load_sweep_config(f)
+    f = tmp_path / "ok.json"
+    f.write_text(json.dumps({**base, "demo_simulator": "mjx", "demo_batch": 4, "device": "cpu"}))
+    cfg = load_sweep_config(f)
+    assert cfg.demo_simulator == "mjx" and cfg.device == "cpu"
+
+
+def test_gpu_requested_without_a_gpu_is_one_line_and_exit_2(tmp_path, capsys):
+    import jax
+
+    from poir_mjx import cli
+
+    if jax.default_backend() == "gpu":
+        pytest.skip("a GPU is visible here")
+    f = tmp_path / "gpu.json"
+    f.write_text(json.dumps({"name": "gpu-check", "tasks": ["lift"], "methods": ["EBC"], "device": "gpu"}))
+    rc = cli.main(["sweep", "--config", str(f), "--results", str(tmp_path / "r")])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and "field 'device': a GPU was requested but jax" in err, err
+    assert not (tmp_path / "r").exists()
