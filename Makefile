@@ -1,21 +1,52 @@
 # poir-mjx: every target creates the virtual environment it needs.
-PYTHON ?= python3.11
-VENV   := .venv
+#
+# Two locked dependency sets (README "Dependencies"); STACK picks one for any target:
+#   STACK=cpu      .venv          Python 3.11, jax 0.7.0, mujoco 3.3.7, robosuite (default: fastest MJX on a CPU)
+#   STACK=current  .venv-current  Python 3.12+, jax 0.11.2, mujoco 3.17.0, numpy 2, no robosuite
+#   STACK=gpu      .venv-gpu      the current set plus jax's CUDA plugin (CUDA=cuda13, or cuda12)
+STACK  ?= cpu
+CUDA   ?= cuda13
+# The first interpreter of at least the given version: plain names, then pyenv's folders.
+find_python = $(firstword $(foreach p,$(1) $(wildcard $(HOME)/.pyenv/versions/$(2)*/bin/python$(2)),$(shell $(p) -c 'import sys; sys.exit(sys.version_info < ($(subst .,$(comma),$(2))))' >/dev/null 2>&1 && echo $(p))))
+comma := ,
+ifeq ($(STACK),cpu)
+  PYTHON ?= $(call find_python,python3.11,3.11)
+  VENV   := .venv
+  LOCKS  := requirements/cpu.txt
+else ifeq ($(STACK),current)
+  PYTHON ?= $(call find_python,python3.12 python3.13,3.12)
+  VENV   := .venv-current
+  LOCKS  := requirements/current.txt
+  # jax 0.11.2 segfaulted writing a CPU executable to the persistent cache (tests/eval, once): off on the CPU.
+  export JAX_ENABLE_COMPILATION_CACHE ?= false
+else ifeq ($(STACK),gpu)
+  PYTHON ?= $(call find_python,python3.12 python3.13,3.12)
+  VENV   := .venv-gpu
+  LOCKS  := requirements/current.txt requirements/$(CUDA).txt
+else
+  $(error STACK must be cpu, current or gpu, got '$(STACK)')
+endif
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
-# JAX's persistent compilation cache: MJX programs take minutes to compile on CPU.
-export JAX_COMPILATION_CACHE_DIR ?= $(CURDIR)/.cache/jax
+# JAX's persistent compilation cache (one per stack: programs differ): MJX compiles for minutes on a CPU.
+export JAX_COMPILATION_CACHE_DIR ?= $(CURDIR)/.cache/jax-$(STACK)
 export PYTHONHASHSEED := 0
 # The sweep config `make sweep` runs; e.g. make sweep SWEEP=experiments/cpu-small-online.json
 SWEEP  ?= experiments/cpu-small.json
+# Where `make demos` records the scripted expert: robosuite (MuJoCo C) or mjx (vectorised, no robosuite).
+DEMO_SIM ?= robosuite
 
-.PHONY: help venv envs demos expert-success test test-fast bench-env bench-planner bench-e2e bench sweep sweep-online eval clean
+.PHONY: help venv envs demos expert-success test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench sweep sweep-online eval wheels clean
 
 help:
-	@echo "make test       - create .venv, export envs if needed, run the test suite"
+	@echo "make test       - both dependency sets: the full suite on the CPU set, the current-stack suite (CI runs this)"
+	@echo "make test-cpu   - the full suite in .venv (Python 3.11, jax 0.7.0, robosuite)"
+	@echo "make test-current - the suite in .venv-current (Python 3.12, jax 0.11.2, numpy 2, no robosuite; robosuite tests skipped)"
+	@echo "make wheels     - download the current set's wheels (+ CUDA plugin) to wheels/ for a machine with no network"
+	@echo "any target with STACK=current or STACK=gpu uses that set, e.g. make sweep STACK=gpu SWEEP=experiments/paper.json"
 	@echo "make sweep      - main job on the CPU-sized default (see README)"
 	@echo "make envs       - export the robosuite tasks to MJX-ready MJCF under envs/"
-	@echo "make demos      - 200 scripted-expert demos per task -> data/demos/<task>.hdf5 (robomimic layout)"
+	@echo "make demos      - 200 scripted-expert demos per task -> data/demos/<task>.hdf5 (robomimic layout; DEMO_SIM=mjx: <task>-mjx.hdf5)"
 	@echo "make expert-success - the expert's success rate over 100 episodes -> results/expert/"
 	@echo "make bench-env  - MJX vs robosuite control-step throughput -> results/bench/env.{json,md}"
 	@echo "make bench-planner - POIR planner calls/s -> results/bench/planner.{json,md}"
@@ -25,11 +56,12 @@ help:
 	@echo "make sweep-online - offline vs online fine-tuning, experiments/cpu-small-online.json -> results/cpu-small-online/"
 	@echo "make eval CKPT=... - evaluate one checkpoint on a noise grid, print the table"
 
-$(STAMP): pyproject.toml
-	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found (Python 3.11 is required)"; exit 1; }
+$(STAMP): pyproject.toml $(LOCKS)
+	@test -n "$(PYTHON)" || { echo "error: no Python interpreter for STACK=$(STACK) (cpu: 3.11; current/gpu: 3.12 or newer); set PYTHON=/path/to/python"; exit 2; }
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e ".[test]"
+	$(PY) -m pip install --quiet $(addprefix -r ,$(LOCKS))
+	$(PY) -m pip install --quiet --no-deps -e .
 	touch $(STAMP)
 
 venv: $(STAMP)
@@ -38,14 +70,26 @@ envs: $(STAMP)
 	$(PY) -m poir_mjx.envs.export --out envs
 
 demos: $(STAMP)
-	$(PY) -m poir_mjx.data.demos generate --num 200 --out data/demos
+	$(PY) -m poir_mjx.data.demos generate --num 200 --out data/demos --simulator $(DEMO_SIM)
 
 expert-success: $(STAMP)
 	$(PY) -m poir_mjx.data.demos success --simulator robosuite --episodes 100
 
-test: $(STAMP)
-	$(PY) -m poir_mjx.envs.export --out envs --check
-	$(PY) -m pytest -q tests
+# CI (.ci/run) runs exactly this: both dependency sets, one after the other.
+test:
+	$(MAKE) test-cpu
+	$(MAKE) test-current
+
+test-cpu:
+	$(MAKE) STACK=cpu venv
+	.venv/bin/python -m poir_mjx.envs.export --out envs --check
+	JAX_COMPILATION_CACHE_DIR=$(CURDIR)/.cache/jax-cpu .venv/bin/python -m pytest -q --durations=15 tests
+
+# The current set has no robosuite: the reference tests skip themselves with the reason. Every task's MJX
+# step, the planner, MJX demos and a tiny end-to-end sweep run here (tests marked current_stack).
+test-current:
+	$(MAKE) STACK=current venv
+	JAX_ENABLE_COMPILATION_CACHE=false .venv-current/bin/python -m pytest -q -m "current_stack or not slow" --durations=15 tests
 
 test-fast: $(STAMP)
 	$(PY) -m pytest -q -m "not slow" tests
@@ -55,7 +99,7 @@ test-fast: $(STAMP)
 BENCH_ENV_ARGS ?= --contact-rich-batch-sizes 1 16
 
 bench-env: $(STAMP)
-	$(PY) -m poir_mjx.bench.env --out results/bench $(BENCH_ENV_ARGS)
+	$(PY) -m poir_mjx.bench.env --out results/bench --name env-$(STACK) $(BENCH_ENV_ARGS)
 
 bench-planner: $(STAMP)
 	$(PY) -m poir_mjx.bench.planner --out results/bench
@@ -75,5 +119,13 @@ eval: $(STAMP)
 	@test -n "$(CKPT)" || { echo "usage: make eval CKPT=checkpoints/<task>/<file>.ckpt [EVAL_ARGS='--sigma-init 0.02 0.2 --episodes 10']"; exit 2; }
 	$(PY) -m poir_mjx.cli eval --ckpt "$(CKPT)" $(EVAL_ARGS)
 
+# Wheels of the current set (and CUDA=cuda13 plugin) for an x86-64 Linux machine with no network:
+# copy wheels/ there, then: pip install --no-index --find-links wheels -r requirements/current.txt -r requirements/cuda13.txt
+wheels:
+	python3 -m pip download --quiet --only-binary=:all: --python-version 3.12 --implementation cp \
+	  --platform manylinux_2_28_x86_64 --platform manylinux_2_27_x86_64 --platform manylinux_2_17_x86_64 \
+	  --platform manylinux2014_x86_64 --platform manylinux1_x86_64 --platform any \
+	  -d wheels -r requirements/current.txt $(if $(NO_CUDA),,-r requirements/$(CUDA).txt) "setuptools>=68"
+
 clean:
-	rm -rf $(VENV) .cache .pytest_cache
+	rm -rf .venv .venv-current .venv-gpu .cache .pytest_cache

@@ -1,9 +1,22 @@
 import os
 from pathlib import Path
 
+import pytest
+
 # JAX's persistent compilation cache in a local folder: MJX programs take minutes to compile on CPU.
 os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", str(Path(__file__).resolve().parents[1] / ".cache" / "jax"))
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "1")
-# MJX in double precision: in float32 the contact solve launched NutAssemblySquare's 16 g nut
-# during a grasp that robosuite (float64) and MJX in float64 both complete (README, "Fidelity").
-os.environ.setdefault("JAX_ENABLE_X64", "1")
+# The suite runs the float32 path that users run (`make sweep`); tests that need float64 physics
+# (NutAssemblySquare's fidelity test) open a `poir_mjx.compat.enable_x64()` scope themselves.
+
+
+def pytest_collection_modifyitems(config, items):
+    """Skip the tests that need robosuite (export, reference simulator, robosuite demos) where it is missing."""
+    from poir_mjx.optional import has_robosuite
+
+    if has_robosuite():
+        return
+    skip = pytest.mark.skip(reason="needs robosuite, which the current dependency set (Python 3.12+, numpy 2) has not")
+    for item in items:
+        if "needs_robosuite" in item.keywords:
+            item.add_marker(skip)

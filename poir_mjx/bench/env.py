@@ -1,6 +1,7 @@
 """``make bench-env``: control steps per second, MJX at several batch sizes vs robosuite's env.step.
 
-Writes ``<out>/env.json`` and ``<out>/env.md``. Also times ``mjx.kinematics`` on Lift at batch 1:
+Writes ``<out>/<name>.json`` and ``<out>/<name>.md`` (``make bench-env``: name ``env-<STACK>``). Without
+robosuite installed (the current dependency set) its row is left out. Also times ``mjx.kinematics`` on Lift at batch 1:
 a regression guard for the jax/XLA CPU slowdown seen with newer jax (seconds instead of ms).
 """
 
@@ -19,6 +20,8 @@ import numpy as np
 from poir_mjx.atomic import atomic_write_text
 from poir_mjx.envs.env import batched, make_env, make_params
 from poir_mjx.envs.tasks import TASKS, make_robosuite
+from poir_mjx.optional import has_robosuite
+from poir_mjx.versions import stack, stack_line
 
 
 def device_name() -> str:
@@ -85,8 +88,7 @@ def to_markdown(res: dict) -> str:
     lines = [
         "# Environment throughput (control steps per second)",
         "",
-        f"Device: {res['device']}; jax {res['versions']['jax']}, mujoco {res['versions']['mujoco']}, "
-        f"robosuite {res['versions']['robosuite']}. Command: `{res['command']}`. "
+        f"Device: {res['device']}; {res['stack_line']}. Command: `{res['command']}`. "
         "One control step = 25 physics substeps (50 ms simulated). MJX: random actions in [-1, 1], "
         "sigma_init 0.02; robosuite: `env.step` in one process.",
         "",
@@ -97,7 +99,8 @@ def to_markdown(res: dict) -> str:
     ]
     for task, r in res["tasks"].items():
         rs = r["robosuite"]
-        lines.append(f"| {task} | robosuite (MuJoCo C) | 1 | {rs['steps_per_s']:.1f} | {1e3 / rs['steps_per_s']:.1f} | - |")
+        if rs is not None:
+            lines.append(f"| {task} | robosuite (MuJoCo C) | 1 | {rs['steps_per_s']:.1f} | {1e3 / rs['steps_per_s']:.1f} | - |")
         for m in r["mjx"]:
             lines.append(
                 f"| {task} | MJX | {m['batch']} | {m['control_steps_per_s']:.1f} | "
@@ -115,27 +118,26 @@ def main(argv=None) -> int:
                    help="batch sizes for PickPlaceCan and NutAssemblySquare (default: --batch-sizes)")
     p.add_argument("--steps", type=int, default=5, help="timed MJX control steps per batch size")
     p.add_argument("--robosuite-steps", type=int, default=100)
+    p.add_argument("--name", default="env", help="output file name without extension")
     args = p.parse_args(argv)
-    import mujoco
-    import robosuite
-
     res = {
         "device": device_name(),
         "command": "python -m poir_mjx.bench.env " + " ".join(sys.argv[1:] if argv is None else argv),
-        "versions": {"jax": jax.__version__, "mujoco": mujoco.__version__, "robosuite": robosuite.__version__},
+        "versions": stack(),
+        "stack_line": stack_line(),
         "kinematics": bench_kinematics(),
         "tasks": {},
     }
     for task in args.tasks:
-        r = {"robosuite": bench_robosuite(task, args.robosuite_steps), "mjx": []}
+        r = {"robosuite": bench_robosuite(task, args.robosuite_steps) if has_robosuite() else None, "mjx": []}
         sizes = args.batch_sizes if (task == "lift" or not args.contact_rich_batch_sizes) else args.contact_rich_batch_sizes
         for b in sizes:
             r["mjx"].append(bench_mjx(task, b, args.steps))
             print(f"{task} batch {b}: {r['mjx'][-1]['control_steps_per_s']:.1f} steps/s", flush=True)
         res["tasks"][task] = r
     out = Path(args.out)
-    atomic_write_text(out / "env.json", json.dumps(res, indent=2) + "\n")
-    atomic_write_text(out / "env.md", to_markdown(res))
+    atomic_write_text(out / f"{args.name}.json", json.dumps(res, indent=2) + "\n")
+    atomic_write_text(out / f"{args.name}.md", to_markdown(res))
     print(to_markdown(res))
     return 0
 
