@@ -67,13 +67,13 @@ $(STAMP): pyproject.toml $(LOCKS)
 venv: $(STAMP)
 
 envs: $(STAMP)
-	$(PY) -m poir_mjx.envs.export --out envs
+	$(PY) -m poir_mjx.cli envs --out envs
 
 demos: $(STAMP)
-	$(PY) -m poir_mjx.data.demos generate --num 200 --out data/demos --simulator $(DEMO_SIM)
+	$(PY) -m poir_mjx.cli demos generate --num 200 --out data/demos --simulator $(DEMO_SIM)
 
 expert-success: $(STAMP)
-	$(PY) -m poir_mjx.data.demos success --simulator robosuite --episodes 100
+	$(PY) -m poir_mjx.cli demos success --simulator robosuite --episodes 100
 
 # CI (.ci/run) runs exactly this: both dependency sets, one after the other.
 test:
