@@ -48,7 +48,7 @@ help:
 	@echo "make envs       - export the robosuite tasks to MJX-ready MJCF under envs/"
 	@echo "make demos      - 200 scripted-expert demos per task -> data/demos/<task>.hdf5 (robomimic layout; DEMO_SIM=mjx: <task>-mjx.hdf5)"
 	@echo "make expert-success - the expert's success rate over 100 episodes -> results/expert/"
-	@echo "make bench-env  - MJX vs robosuite control-step throughput -> results/bench/env-$$(STACK).{json,md}"
+	@echo "make bench-env  - MJX vs robosuite control-step throughput -> results/bench/env-<STACK>.{json,md}"
 	@echo "make bench-planner - POIR planner calls/s -> results/bench/planner.{json,md}"
 	@echo "make bench-e2e  - evaluated episodes per minute, EBC and POIR-DRIL -> results/bench/e2e.{json,md}"
 	@echo "make bench      - all benchmarks -> results/bench/"
