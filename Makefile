@@ -36,7 +36,7 @@ SWEEP  ?= experiments/cpu-small.json
 # Where `make demos` records the scripted expert: robosuite (MuJoCo C) or mjx (vectorised, no robosuite).
 DEMO_SIM ?= robosuite
 
-.PHONY: help venv envs demos expert-success test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench sweep sweep-online eval wheels clean
+.PHONY: help venv envs demos expert-success test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench sweep sweep-online eval xsim wheels clean
 
 help:
 	@echo "make test       - both dependency sets: the full suite on the CPU set, the current-stack suite (CI runs this)"
@@ -54,7 +54,8 @@ help:
 	@echo "make bench      - all benchmarks -> results/bench/"
 	@echo "make sweep      - success rate vs noise, experiments/cpu-small.json -> results/cpu-small/ (SWEEP=other.json)"
 	@echo "make sweep-online - offline vs online fine-tuning, experiments/cpu-small-online.json -> results/cpu-small-online/"
-	@echo "make eval CKPT=... - evaluate one checkpoint on a noise grid, print the table"
+	@echo "make eval CKPT=... - evaluate one checkpoint on a noise grid, print the table (EVAL_ARGS='--simulator robosuite --out F')"
+	@echo "make xsim CKPT=... - the same checkpoint in MJX and in robosuite side by side, Fisher exact test per cell"
 
 $(STAMP): pyproject.toml $(LOCKS)
 	@test -n "$(PYTHON)" || { echo "error: no Python interpreter for STACK=$(STACK) (cpu: 3.11; current/gpu: 3.12 or newer); set PYTHON=/path/to/python"; exit 2; }
@@ -118,6 +119,10 @@ sweep-online: $(STAMP)
 eval: $(STAMP)
 	@test -n "$(CKPT)" || { echo "usage: make eval CKPT=checkpoints/<task>/<file>.ckpt [EVAL_ARGS='--sigma-init 0.02 0.2 --episodes 10']"; exit 2; }
 	$(PY) -m poir_mjx.cli eval --ckpt "$(CKPT)" $(EVAL_ARGS)
+
+xsim: $(STAMP)
+	@test -n "$(CKPT)" || { echo "usage: make xsim CKPT=checkpoints/<task>/<file>.ckpt [EVAL_ARGS='--sigma-init 0.02 0.2 --episodes 20']"; exit 2; }
+	$(PY) -m poir_mjx.cli eval --ckpt "$(CKPT)" --simulator both $(EVAL_ARGS)
 
 # Wheels of the current set (and CUDA=cuda13 plugin) for an x86-64 Linux machine with no network:
 # copy wheels/ there, then: pip install --no-index --find-links wheels -r requirements/current.txt -r requirements/cuda13.txt

@@ -8,20 +8,23 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
 
 def _eval(args) -> int:
-    import jax
     import numpy as np
 
     from poir_mjx.core import checkpoint
     from poir_mjx.core.agent import POIR
-    from poir_mjx.envs.env import make_env, make_params
+    from poir_mjx.envs.layout import obs_groups
     from poir_mjx.eval.methods import UnknownMethodError, get_method
-    from poir_mjx.eval.rollout import make_evaluator, run_batch
+    from poir_mjx.atomic import atomic_write_text
+    from poir_mjx.eval.episodes import SIMULATORS, agreement_p_value, run_episodes
+    from poir_mjx.eval.rollout import episode_keys
     from poir_mjx.eval.stats import wilson_interval
+    from poir_mjx.versions import simulator_line
 
     agent, params, layout = checkpoint.load(args.ckpt)
     task = layout.get("task")
@@ -36,26 +39,37 @@ def _eval(args) -> int:
         raise checkpoint.CheckpointError(
             f"{args.ckpt}: method {method.name} needs a '{method.agent_kind}' checkpoint, this one is '{kind}'"
         )
-    env = make_env(task)
-    if layout.get("obs_size") != sum(env.obs_sizes.values()):
+    if layout.get("obs_size") != len(obs_groups(task)):
         raise checkpoint.CheckpointError(f"{args.ckpt}: layout field 'obs_size' does not match task {task}")
     agent = POIR(method.agent_config(agent.config), agent.obs_size, agent.act_size)
     grid = [(si, sa) for si in args.sigma_init for sa in args.sigma_action]
     si = np.repeat([g[0] for g in grid], args.episodes)
     sa = np.repeat([g[1] for g in grid], args.episodes)
-    evaluator = make_evaluator(env, method.policy_fn(agent), args.max_steps)
-    keys = jax.random.split(jax.random.PRNGKey(args.seed), len(si))
-    res = run_batch(evaluator, params, keys, make_params(si, sa))
+    keys = episode_keys(args.seed, len(si))
+    sims = list(SIMULATORS) if args.simulator == "both" else [args.simulator]
+    res = {sim: run_episodes(sim, task, method, agent, params, keys, si, sa, args.max_steps, args.workers) for sim in sims}
     data = layout.get("demos", {})
-    print(f"{task}, {method.name}, checkpoint {args.ckpt}; expert data: {data.get('source', '?')} "
-          f"({data.get('simulator', data.get('path', '?'))}); {args.episodes} episodes x {args.max_steps} steps")  # fmt: skip
-    print("| sigma_init | sigma_action | success | Wilson 95% | diverged |")
-    print("|---|---|---|---|---|")
+    lines = [f"{task}, {method.name}, checkpoint {args.ckpt}; expert data: {data.get('source', '?')} "
+             f"({data.get('simulator', data.get('path', '?'))}); {args.episodes} episodes x {args.max_steps} steps per "
+             f"cell, seed {args.seed} (the sweep's episode keys); simulator: "
+             + " vs ".join(simulator_line(sim) for sim in sims), "",
+             "| sigma_init | sigma_action | " + " | ".join(f"{sim}: success [Wilson 95%] (diverged)" for sim in sims)
+             + (" | Fisher p |" if len(sims) == 2 else " |"), "|---|---|" + "---|" * (len(sims) + (len(sims) == 2))]  # fmt: skip
     for j, (a, b) in enumerate(grid):
-        ok = res["first_success"][j * args.episodes : (j + 1) * args.episodes] >= 0
-        lo, hi = wilson_interval(int(ok.sum()), args.episodes)
-        dv = int(res["diverged"][j * args.episodes : (j + 1) * args.episodes].sum())
-        print(f"| {a:g} | {b:g} | {ok.mean():.2f} | [{lo:.2f}, {hi:.2f}] | {dv} |")
+        cells, counts = [], []
+        for sim in sims:
+            ok = res[sim]["first_success"][j * args.episodes : (j + 1) * args.episodes] >= 0
+            lo, hi = wilson_interval(int(ok.sum()), args.episodes)
+            dv = int(res[sim]["diverged"][j * args.episodes : (j + 1) * args.episodes].sum())
+            cells.append(f"{ok.mean():.2f} [{lo:.2f}, {hi:.2f}] ({dv})")
+            counts.append(int(ok.sum()))
+        if len(sims) == 2:
+            cells.append(f"{agreement_p_value(counts[0], args.episodes, counts[1], args.episodes):.2f}")
+        lines.append(f"| {a:g} | {b:g} | " + " | ".join(cells) + " |")
+    print("\n".join(lines))
+    if args.out is not None:
+        atomic_write_text(args.out, "\n".join(lines) + "\n")
+        print(f"wrote {args.out}")
     return 0
 
 
@@ -80,6 +94,11 @@ def main(argv=None) -> int:
     ep.add_argument("--max-steps", type=int, default=400)
     ep.add_argument("--seed", type=int, default=0)
     ep.add_argument("--device", default="any", choices=["any", "cpu", "gpu"], help="gpu: fail unless jax sees a GPU")
+    ep.add_argument("--simulator", default="mjx", choices=["mjx", "robosuite", "both"],
+                    help="mjx (vectorised), robosuite (the reference simulator, in --workers processes) or both "
+                    "side by side with a Fisher exact test per cell (make xsim)")
+    ep.add_argument("--workers", type=int, default=2, help="robosuite worker processes")
+    ep.add_argument("--out", type=Path, default=None, help="also write the table to this file (markdown)")
     args, rest = p.parse_known_args(argv)
 
     from poir_mjx.core.checkpoint import CheckpointError
@@ -111,10 +130,10 @@ def main(argv=None) -> int:
         if rest:
             p.error(f"unrecognised arguments: {' '.join(rest)}")
         if args.command == "eval":
-            if args.episodes <= 0 or args.max_steps <= 0:
-                raise ConfigError("--episodes and --max-steps must be positive")
-            if min(args.sigma_init + args.sigma_action) < 0:
-                raise ConfigError("--sigma-init/--sigma-action: noise levels must be >= 0")
+            if args.episodes <= 0 or args.max_steps <= 0 or args.workers <= 0:
+                raise ConfigError("--episodes, --max-steps and --workers must be positive")
+            if not all(math.isfinite(x) and x >= 0 for x in args.sigma_init + args.sigma_action):
+                raise ConfigError("--sigma-init/--sigma-action: noise levels must be finite and >= 0")
             select_device(args.device, "--device")
             return _eval(args)
         from poir_mjx.eval.sweep import load_sweep_config, run_sweep

@@ -31,3 +31,12 @@ def stack_line() -> str:
     rs = s["robosuite"] or "not installed"
     return (f"Python {s['python']}, jax {s['jax']}, mujoco {s['mujoco']}, mujoco-mjx {s['mujoco-mjx']}, "
             f"numpy {s['numpy']}, robosuite {rs}")  # fmt: skip
+
+
+def simulator_line(simulator: str) -> str:
+    """Which simulator produced a result, with its version: "MJX (mujoco-mjx 3.3.7, float32)" or robosuite's."""
+    if simulator == "robosuite":
+        return f"robosuite {package_version('robosuite') or '?'} (MuJoCo {package_version('mujoco') or '?'})"
+    import jax
+
+    return f"MJX (mujoco-mjx {mjx_version()}, {'float64' if jax.config.jax_enable_x64 else 'float32'})"

@@ -20,6 +20,7 @@ from poir_mjx.atomic import atomic_write_text
 from poir_mjx.bench.env import device_name
 from poir_mjx.envs.env import make_params
 from poir_mjx.eval import sweep as sw
+from poir_mjx.eval.episodes import mjx_evaluator
 from poir_mjx.eval.methods import get_method
 from poir_mjx.eval.rollout import run_batch
 
@@ -30,7 +31,7 @@ def bench(preset: str, method_name: str, episodes: int, steps: int, num_demos: i
     method = get_method(method_name)
     demo_path, prov = sw.demos_for(cfg, "lift", Path("data/demos"))
     agent, params, _ = sw.train_or_load(method, cfg, "lift", 0, demo_path, prov, Path("checkpoints"))
-    evaluator = sw._evaluator("lift", method, agent, steps)
+    evaluator = mjx_evaluator("lift", method, agent, steps)
     env_params = make_params(np.full(episodes, 0.2), 0.0)
     t0 = time.perf_counter()
     run_batch(evaluator, params, jax.random.split(jax.random.PRNGKey(0), episodes), env_params)

@@ -21,6 +21,7 @@ from poir_mjx.bench.env import device_name
 from poir_mjx.core import ensemble as ens
 from poir_mjx.core.agent import POIR, POIRParams
 from poir_mjx.core.config import PRESETS, REWARDS
+from poir_mjx.core.normalizer import Normalizer
 
 OBS, ACT = 19, 7
 
@@ -34,8 +35,8 @@ def random_params(agent: POIR, expert_states: int, key) -> POIRParams:
         bc=bc,
         wm=wm,
         reward_wm=wm,
-        obs_norm=ens.Normalizer(jnp.zeros(OBS), jnp.ones(OBS)),
-        act_norm=ens.Normalizer(jnp.zeros(ACT), jnp.ones(ACT)),
+        obs_norm=Normalizer(jnp.zeros(OBS), jnp.ones(OBS)),
+        act_norm=Normalizer(jnp.zeros(ACT), jnp.ones(ACT)),
         expert_states=jax.random.normal(k3, (expert_states, OBS)),
     )
 

@@ -5,8 +5,10 @@ Written once for every size: the ``cpu-small`` and ``paper`` presets differ only
 - BC / EBC act from the stacked BC ensemble (head 0 / mean of the K heads).
 - The world model predicts the change of the normalised state: P_k(s, a) = s + f_k(s, a).
 - ``plan(params, obs, key) -> action`` is the paper's SelectAction: N trajectories, horizon H,
-  trajectory n keeps head n mod K for prior and model, reward r_IL(s_t, a_t) summed over
-  t = 1..H (s_1 the real state), top-k average of the first actions, clipped to the bounds.
+  trajectory n keeps head n mod K for prior and model, imitation rewards summed over the H steps,
+  top-k average of the first actions, clipped to the bounds. L2 and DRIL score the predicted
+  state each action leads to, r(s^_{t+1}) for t = 1..H (``planner.reward_timing = "next_state"``);
+  "current_state" is the printed r(s^_t, a~_t), s^_1 the real state; MOREL scores (s^_t, a~_t).
 
 Networks, planner and rewards run in float32 whatever ``jax_enable_x64`` is (MJX physics may run
 in float64): observations are cast to float32 on entry and actions come back in float32.
@@ -26,6 +28,7 @@ from flax import struct
 from poir_mjx.core import ensemble as ens
 from poir_mjx.core import rewards
 from poir_mjx.core.config import POIRConfig
+from poir_mjx.core.normalizer import Normalizer, observation_floor
 
 
 @struct.dataclass
@@ -33,8 +36,8 @@ class POIRParams:
     bc: Any  # stacked BC ensemble [K]
     wm: Any  # stacked world-model ensemble [K] (None for policy-only agents)
     reward_wm: Any  # world model used by the MOREL reward (a frozen offline copy during fine-tuning)
-    obs_norm: ens.Normalizer
-    act_norm: ens.Normalizer
+    obs_norm: Normalizer
+    act_norm: Normalizer
     expert_states: jax.Array  # normalised expert states searched by the L2 reward [E, ds]
 
 
@@ -63,20 +66,27 @@ class POIR:
         act: np.ndarray,
         next_obs: np.ndarray,
         *,
+        obs_groups: tuple[str, ...] | None = None,
         train_world_model: bool = True,
         epochs: int | None = None,
         callback: Callable[[str, int, np.ndarray], None] | None = None,
     ) -> tuple[POIRParams, dict]:
-        """Train the BC (and world-model) ensembles on expert transitions. Returns params and loss history."""
+        """Train the BC (and world-model) ensembles on expert transitions. Returns params and loss history.
+
+        obs_groups: each observation dimension's group ("position", "quaternion", "gripper"; see
+        ``poir_mjx.envs.layout.obs_groups``), which sets its std floor; None: no observation floor.
+        """
         cfg = self.config
         obs, act, next_obs = (jnp.asarray(a, jnp.float32) for a in (obs, act, next_obs))
         if obs.shape[-1] != self.obs_size or next_obs.shape != obs.shape:
             raise ValueError(f"obs: expected [n, {self.obs_size}] and next_obs of the same shape, got {obs.shape}, {next_obs.shape}")
         if act.shape != (obs.shape[0], self.act_size):
             raise ValueError(f"act: expected shape ({obs.shape[0]}, {self.act_size}), got {act.shape}")
-        obs_norm = ens.Normalizer.fit(obs, cfg.normalize)
-        act_norm = ens.Normalizer.fit(act, cfg.normalize)
-        s, a, s2 = obs_norm(obs), act_norm(act), obs_norm(next_obs)
+        nc = cfg.normalizer
+        obs_norm = Normalizer.fit(obs, cfg.normalize, observation_floor(nc, obs_groups, self.obs_size))
+        act_norm = Normalizer.fit(act, cfg.normalize, nc.action_std_floor)
+        s, a = self._clip(obs_norm(obs)), act_norm(act)
+        s2 = self._clip(obs_norm(next_obs))
         k_bc, k_wm, k_loop = jax.random.split(key, 3)
         opt = ens.make_optimizer(cfg.train)
         epochs = cfg.train.epochs if epochs is None else epochs
@@ -100,6 +110,14 @@ class POIR:
         return params, {k: np.array(v) for k, v in history.items()}
 
     # ------------------------------------------------------------------ policies
+    def _clip(self, s_norm):
+        """Normalised states as the networks and rewards see them (clipped when normalizer.clip > 0)."""
+        c = self.config.normalizer.clip if self.config.normalize else 0.0
+        return jnp.clip(s_norm, -c, c) if c > 0 else s_norm
+
+    def normalize_obs(self, params: POIRParams, obs: jax.Array) -> jax.Array:
+        return self._clip(params.obs_norm(jnp.asarray(obs, jnp.float32)))
+
     def _act_bounds(self, params):
         lo = params.act_norm(jnp.full(self.act_size, self.config.action_low, jnp.float32))
         hi = params.act_norm(jnp.full(self.act_size, self.config.action_high, jnp.float32))
@@ -110,12 +128,12 @@ class POIR:
 
     def bc_action(self, params: POIRParams, obs: jax.Array) -> jax.Array:
         """Plain BC: the first network of the ensemble."""
-        s = params.obs_norm(jnp.asarray(obs, jnp.float32))
+        s = self.normalize_obs(params, obs)
         return self._to_env_action(params, self.bc_module.apply(jax.tree_util.tree_map(lambda p: p[0], params.bc), s))
 
     def ebc_action(self, params: POIRParams, obs: jax.Array) -> jax.Array:
         """Ensemble BC: the mean of the K networks' actions."""
-        a = ens.apply_all(self.bc_module, params.bc, params.obs_norm(jnp.asarray(obs, jnp.float32))).mean(0)
+        a = ens.apply_all(self.bc_module, params.bc, self.normalize_obs(params, obs)).mean(0)
         return self._to_env_action(params, a)
 
     # ------------------------------------------------------------------ planner
@@ -140,7 +158,8 @@ class POIR:
         pc = self.config.planner
         k, m = self.head_layout()
         lo, hi = self._act_bounds(params)
-        s0 = jnp.broadcast_to(params.obs_norm(jnp.asarray(obs, jnp.float32)), (k, m, self.obs_size))
+        s0 = jnp.broadcast_to(self.normalize_obs(params, obs), (k, m, self.obs_size))
+        score_next = pc.reward != "morel" and pc.reward_timing == "next_state"
         keys = jax.random.split(key, pc.horizon)
 
         def body(carry, xs):
@@ -152,8 +171,8 @@ class POIR:
             else:
                 a = jax.random.uniform(kt, (k, m, self.act_size), jnp.float32, minval=lo, maxval=hi)
             a = jnp.clip(a, lo, hi)
-            ret = ret + self.trajectory_rewards(params, s, a)
-            s_next = s + ens.apply_each(self.wm_module, params.wm, jnp.concatenate([s, a], -1))
+            s_next = self._clip(s + ens.apply_each(self.wm_module, params.wm, jnp.concatenate([s, a], -1)))
+            ret = ret + self.trajectory_rewards(params, s_next if score_next else s, a)
             first = jnp.where(t == 0, a, first)
             return (s_next, ret, first), None
 

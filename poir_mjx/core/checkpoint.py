@@ -17,7 +17,7 @@ from flax import serialization
 from poir_mjx.atomic import atomic_write_bytes
 from poir_mjx.core.agent import POIR, POIRParams
 from poir_mjx.core.config import ConfigError, POIRConfig, from_dict, to_dict
-from poir_mjx.core.ensemble import Normalizer
+from poir_mjx.core.normalizer import Normalizer
 
 FORMAT = "poir-mjx-checkpoint/1"
 

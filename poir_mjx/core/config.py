@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 import typing
 from typing import Literal
 
@@ -56,6 +57,30 @@ class PlannerConfig:
     """Expert states per chunk in the exact nearest-neighbour search (bounds memory)."""
     l2_approx_size: int = 0
     """If > 0, the L2 reward searches a fixed random subset of this many expert states (approximate)."""
+    reward_timing: Literal["next_state", "current_state"] = "next_state"
+    """When L2 and DRIL score a step: "next_state" scores the predicted state s^_{t+1} that action a~_t
+    leads to (every step's action is judged, the last predicted state too); "current_state" is the
+    algorithm as printed, r(s^_t, a~_t) for t = 1..H, whose first term is the same for every
+    trajectory (all returns tie at H = 1) and which never scores the last predicted state. MOREL
+    always scores (s^_t, a~_t): its disagreement is about the transition a~_t starts."""
+
+
+@dataclasses.dataclass(frozen=True)
+class NormalizerConfig:
+    """Floors on the expert data's per-dimension std (environment units); all zeros: the paper's plain
+    standardisation (std as measured, at least 1e-6). See poir_mjx/core/normalizer.py."""
+
+    position_std_floor: float = 0.01
+    """Smallest std of a position dimension, in metres (end effector, object, gripper-to-object)."""
+    quaternion_std_floor: float = 0.05
+    """Smallest std of a quaternion component (0.05 is a tilt of about 6 degrees)."""
+    gripper_std_floor: float = 0.005
+    """Smallest std of a gripper finger joint, in metres (fully open to closed is about 0.04)."""
+    action_std_floor: float = 0.05
+    """Smallest std of an action dimension (robosuite's actions lie in [-1, 1])."""
+    clip: float = 0.0
+    """If > 0, normalised states the networks and rewards see (real and imagined) are clipped to
+    [-clip, clip]; 0 leaves them unbounded (the paper)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -96,6 +121,8 @@ class POIRConfig:
     """MPPI-style planner."""
     normalize: bool = True
     """Normalise observations and actions with the expert data's mean/std (POIR: yes; BC/EBC: no)."""
+    normalizer: NormalizerConfig = NormalizerConfig()
+    """Std floors and clipping of the normalisation (used when normalize is true)."""
     action_low: float = -1.0
     """Lower action bound (robosuite OSC_POSE and gripper: -1)."""
     action_high: float = 1.0
@@ -132,6 +159,8 @@ def _validate(cfg, prefix):
         elif t is float:
             if isinstance(v, bool) or not isinstance(v, (int, float)):
                 raise ConfigError(f"{name}: expected a number, got {v!r}")
+            if not math.isfinite(v):
+                raise ConfigError(f"{name}: must be finite, got {v!r}")
             if f.name not in ("action_low", "action_high") and v < 0:
                 raise ConfigError(f"{name}: must be >= 0, got {v}")
     if isinstance(cfg, POIRConfig) and not cfg.action_low < cfg.action_high:

@@ -14,7 +14,6 @@ import flax.linen as nn
 import jax
 import jax.numpy as jnp
 import optax
-from flax import struct
 
 from poir_mjx.core.config import MLPConfig, TrainConfig
 
@@ -55,32 +54,6 @@ def apply_all(module: nn.Module, params, x: jax.Array) -> jax.Array:
 def apply_each(module: nn.Module, params, x: jax.Array) -> jax.Array:
     """Member k on its own inputs: x [K, ..., d] -> [K, ..., out]."""
     return jax.vmap(module.apply)(params, x)
-
-
-@struct.dataclass
-class Normalizer:
-    """Mean/std normalisation from the expert data (identity when disabled); float32 in and out."""
-
-    mean: jax.Array
-    std: jax.Array
-
-    @staticmethod
-    def fit(x: jax.Array, enabled: bool = True, eps: float = 1e-6) -> Normalizer:
-        x = jnp.asarray(x, jnp.float32)
-        if not enabled:
-            return Normalizer(jnp.zeros(x.shape[-1], jnp.float32), jnp.ones(x.shape[-1], jnp.float32))
-        return Normalizer(x.mean(0), jnp.maximum(x.std(0), eps))
-
-    def _stats(self):
-        return jnp.asarray(self.mean, jnp.float32), jnp.asarray(self.std, jnp.float32)
-
-    def __call__(self, x):
-        mean, std = self._stats()
-        return (jnp.asarray(x, jnp.float32) - mean) / std
-
-    def inverse(self, z):
-        mean, std = self._stats()
-        return jnp.asarray(z, jnp.float32) * std + mean
 
 
 class TrainState(NamedTuple):

@@ -46,6 +46,11 @@ def make_evaluator(env: TaskEnv, policy_fn, steps: int):
     return jax.jit(jax.vmap(episode, in_axes=(None, 0, 0)))
 
 
+def episode_keys(seed: int, n: int) -> jax.Array:
+    """One key per episode of a cell batch, the same in `sweep` and `eval` (so `eval` reproduces a sweep cell)."""
+    return jax.random.split(jax.random.fold_in(jax.random.PRNGKey(seed), 1), n)
+
+
 def replicate(tree):
     """Commit a pytree to every device of the episode mesh (replicated): the same sharding on every call,
     so a jitted function sees one signature whether its inputs are fresh or outputs of another jit."""

@@ -20,6 +20,7 @@ import dataclasses
 import functools
 import hashlib
 import json
+import math
 import time
 import typing
 from pathlib import Path
@@ -31,12 +32,15 @@ from poir_mjx.atomic import atomic_write_text
 from poir_mjx.core import checkpoint
 from poir_mjx.core.agent import POIR
 from poir_mjx.core.config import ConfigError, POIRConfig, apply_overrides, check_fields, preset, to_dict
-from poir_mjx.data.robomimic import LOW_DIM_KEYS, read_transitions
+from poir_mjx.data.robomimic import LOW_DIM_KEYS, DatasetError, read_transitions
 from poir_mjx.envs.env import make_env, make_params
+from poir_mjx.envs.layout import obs_groups
 from poir_mjx.envs.tasks import TASKS
 from poir_mjx.eval.methods import METHODS, Method, get_method
-from poir_mjx.eval.rollout import make_evaluator, run_batch
+from poir_mjx.eval.episodes import run_episodes
+from poir_mjx.eval.rollout import episode_keys
 from poir_mjx.eval.stats import wilson_interval
+from poir_mjx.versions import simulator_line
 
 
 @dataclasses.dataclass(frozen=True)
@@ -66,6 +70,12 @@ class SweepConfig:
     (vectorised in MJX, no robosuite: the path for a GPU machine)."""
     demo_batch: int = 16
     """MJX episodes per compiled batch when demo_simulator is "mjx" (GPU: 256-1024)."""
+    simulator: str = "mjx"
+    """Where the evaluation episodes run: "mjx" (vectorised, one compiled rollout: the GPU path) or
+    "robosuite" (the reference: robosuite's own environment and controller in `workers` processes,
+    the agent's calls batched across them; needs robosuite; online methods fine-tune in MJX only)."""
+    workers: int = 2
+    """robosuite worker processes when simulator is "robosuite" (about one per CPU core)."""
     device: str = "any"
     """"gpu" refuses to run unless jax sees a GPU (no silent CPU run), "cpu" forces the CPU, "any" takes jax's default."""
     demo_files: dict = dataclasses.field(default_factory=dict)
@@ -124,13 +134,17 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
         if m not in METHODS:
             raise ConfigError(f"{path}: field 'methods': unknown method {m!r}; expected one of {', '.join(METHODS)}")
     for fld in ("sigma_init", "sigma_action"):
-        if any(x < 0 for x in getattr(cfg, fld)):
-            raise ConfigError(f"{path}: field '{fld}': noise levels must be >= 0")
+        if not all(math.isfinite(x) and x >= 0 for x in getattr(cfg, fld)):
+            raise ConfigError(f"{path}: field '{fld}': noise levels must be finite and >= 0")
     if cfg.demo_simulator not in ("robosuite", "mjx"):
         raise ConfigError(f"{path}: field 'demo_simulator' must be \"robosuite\" or \"mjx\", got {cfg.demo_simulator!r}")
+    if cfg.simulator not in ("mjx", "robosuite"):
+        raise ConfigError(f"{path}: field 'simulator' must be \"mjx\" or \"robosuite\", got {cfg.simulator!r}")
+    if cfg.simulator == "robosuite" and any(get_method(m).online for m in cfg.methods):
+        raise ConfigError(f"{path}: field 'simulator': online methods fine-tune and evaluate in MJX; use \"mjx\"")
     if cfg.device not in ("any", "cpu", "gpu"):
         raise ConfigError(f"{path}: field 'device' must be \"any\", \"cpu\" or \"gpu\", got {cfg.device!r}")
-    for fld in ("episodes", "max_steps", "num_demos", "demo_batch"):
+    for fld in ("episodes", "max_steps", "num_demos", "demo_batch", "workers"):
         if getattr(cfg, fld) <= 0:
             raise ConfigError(f"{path}: field '{fld}' must be positive")
     try:
@@ -195,6 +209,10 @@ def train_or_load(method: Method, cfg: SweepConfig, task: str, seed: int, demo_p
         agent, params, _ = checkpoint.load(path, tcfg, layout)
     else:
         tr = read_transitions(demo_path, task=task)
+        groups = obs_groups(task)
+        if tr.obs.shape[1] != len(groups):
+            raise DatasetError(f"{demo_path}: observations {list(LOW_DIM_KEYS)} are {tr.obs.shape[1]} wide, "
+                               f"task {task} has {len(groups)}")  # fmt: skip
         agent = POIR(tcfg, tr.obs.shape[1], tr.actions.shape[1])
         bar = tqdm(total=tcfg.train.epochs * (2 if method.agent_kind == "poir" else 1),
                    desc=f"train {task} {method.agent_kind} seed {seed}", unit="epoch", disable=not progress)  # fmt: skip
@@ -203,17 +221,11 @@ def train_or_load(method: Method, cfg: SweepConfig, task: str, seed: int, demo_p
             bar.update(1)
             bar.set_postfix({name: f"{float(np.mean(loss)):.4f}"})
 
-        params, _ = agent.fit(jax.random.PRNGKey(seed), tr.obs, tr.actions, tr.next_obs,
+        params, _ = agent.fit(jax.random.PRNGKey(seed), tr.obs, tr.actions, tr.next_obs, obs_groups=groups,
                               train_world_model=method.agent_kind == "poir", callback=cb)  # fmt: skip
         bar.close()
         checkpoint.save(path, agent, params, layout)
     return POIR(method.agent_config(base_config(cfg)), agent.obs_size, agent.act_size), params, path
-
-
-@functools.lru_cache(maxsize=None)
-def _evaluator(task: str, method: Method, agent: POIR, steps: int):
-    """One compiled evaluator per (task, method, agent config, steps), reused across cells and runs."""
-    return make_evaluator(make_env(task), method.policy_fn(agent), steps)
 
 
 # ---------------------------------------------------------------------------------- cells
@@ -229,6 +241,7 @@ def cell_hash(cfg: SweepConfig, task: str, method: str) -> str:
         "num_demos": cfg.num_demos,
         "demo_file": cfg.demo_files.get(task),
         **({"demo_simulator": cfg.demo_simulator} if cfg.demo_simulator != "robosuite" else {}),
+        **({"simulator": cfg.simulator} if cfg.simulator != "mjx" else {}),
         "x64": cfg.x64,
     }
     return _hash(relevant)
@@ -263,10 +276,11 @@ def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: 
         agent, params, ckpt = train_or_load(method, cfg, task, seed, demo_path, prov, ckpt_dir, progress)
         si = np.repeat([g[0] for g in grid], cfg.episodes)
         sa = np.repeat([g[1] for g in grid], cfg.episodes)
-        keys = jax.random.split(jax.random.fold_in(jax.random.PRNGKey(seed), 1), len(si))  # one key per episode
+        keys = episode_keys(seed, len(si))  # one key per episode
         common = {"task": task, "method": mname, "seed": seed, "episodes": cfg.episodes, "max_steps": cfg.max_steps,
                   "config_hash": chash, "checkpoint": str(ckpt), "data": prov,
-                  "device": f"{jax.devices()[0].platform} x{jax.device_count()}", "x64": bool(jax.config.jax_enable_x64)}  # fmt: skip
+                  "device": f"{jax.devices()[0].platform} x{jax.device_count()}", "x64": bool(jax.config.jax_enable_x64),
+                  "simulator": simulator_line(cfg.simulator)}  # fmt: skip
         if method.online:
             # Each noise cell is its own deployment environment: fine-tune there, evaluate on the
             # cell's own episode keys (the offline cell's keys: a paired comparison).
@@ -292,7 +306,8 @@ def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: 
                 bar.update(cfg.episodes)
             continue
         t0 = time.perf_counter()
-        res = run_batch(_evaluator(task, method, agent, cfg.max_steps), params, keys, make_params(si, sa))
+        res = run_episodes(cfg.simulator, task, method, agent, params, keys, si, sa, cfg.max_steps, cfg.workers,
+                           progress)  # fmt: skip
         wall = time.perf_counter() - t0
         for j, ((s_i, s_a), path) in enumerate(zip(grid, paths)):
             sl = slice(j * cfg.episodes, (j + 1) * cfg.episodes)
@@ -352,7 +367,8 @@ def collect(cfg: SweepConfig, out: Path, task: str) -> dict:
                     k = sum(r["successes"] for r in recs)
                     n = sum(r["episodes"] for r in recs)
                     table[(mname, si, sa)] = {"k": k, "n": n, "ci": wilson_interval(k, n), "data": recs[0]["data"],
-                                              "diverged": sum(r["diverged"] for r in recs)}  # fmt: skip
+                                              "diverged": sum(r["diverged"] for r in recs),
+                                              "simulator": recs[0].get("simulator", "MJX")}  # fmt: skip
     return table
 
 
@@ -377,7 +393,8 @@ def write_tables(cfg: SweepConfig, out: Path) -> str:
                else f"robomimic file {data.get('path')}")  # fmt: skip
         cols = [(si, sa) for si in cfg.sigma_init for sa in cfg.sigma_action]
         md = [f"## {task}", "", f"Success rate (Wilson 95% interval), {cfg.episodes} episodes x {len(cfg.seeds)} seed(s) per cell, "
-              f"{cfg.max_steps} steps per episode, preset {cfg.preset}. Expert data: {src}.", "",
+              f"{cfg.max_steps} steps per episode, preset {cfg.preset}. Expert data: {src}. "
+              f"Simulator: {next(iter(table.values()))['simulator']}.", "",
               "| method | " + " | ".join(_col(si, sa, cfg) for si, sa in cols) + " |",
               "|---|" + "---|" * len(cols)]  # fmt: skip
         csv = ["method," + ",".join(f"si={si:g} sa={sa:g} {x}" for si, sa in cols for x in ("rate", "lo", "hi"))]

@@ -16,6 +16,7 @@ import optax
 
 from poir_mjx.core import ensemble as ens
 from poir_mjx.core.config import OnlineConfig
+from poir_mjx.core.normalizer import Normalizer
 from poir_mjx.online.buffer import ReplayBuffer
 
 
@@ -25,28 +26,31 @@ def online_fraction(cfg: OnlineConfig, grad_step) -> jax.Array:
     return jnp.minimum(frac, cfg.mix_max)
 
 
-def world_model_targets(obs_norm: ens.Normalizer, act_norm: ens.Normalizer, obs, act, next_obs):
-    """(inputs [s, a], target s' - s) in normalised units, as the world model is trained offline."""
+def world_model_targets(obs_norm: Normalizer, act_norm: Normalizer, obs, act, next_obs, clip: float = 0.0):
+    """(inputs [s, a], target s' - s) in normalised units, as the world model is trained offline
+    (normalised states clipped to [-clip, clip] when clip > 0, as ``POIR.normalize_obs`` does)."""
     s, s2 = obs_norm(obs), obs_norm(next_obs)
+    if clip > 0:
+        s, s2 = jnp.clip(s, -clip, clip), jnp.clip(s2, -clip, clip)
     return jnp.concatenate([s, act_norm(act)], -1), s2 - s
 
 
-@functools.partial(jax.jit, static_argnames=("module",))
-def deployment_error(module, wm_params, obs_norm, act_norm, obs, act, next_obs, valid) -> jax.Array:
+@functools.partial(jax.jit, static_argnames=("module", "clip"))
+def deployment_error(module, wm_params, obs_norm, act_norm, obs, act, next_obs, valid, clip: float = 0.0) -> jax.Array:
     """Per-member one-step error (summed squared, normalised units) averaged over the valid transitions."""
-    x, y = world_model_targets(obs_norm, act_norm, obs, act, next_obs)
+    x, y = world_model_targets(obs_norm, act_norm, obs, act, next_obs, clip)
     pred = ens.apply_all(module, wm_params, x)
     err = jnp.sum((pred - y) ** 2, -1)
     w = valid.astype(err.dtype)
     return jnp.sum(err * w, -1) / jnp.maximum(w.sum(), 1.0)
 
 
-@functools.partial(jax.jit, static_argnames=("module", "optimizer", "cfg", "batch_size", "num_steps"))
+@functools.partial(jax.jit, static_argnames=("module", "optimizer", "cfg", "batch_size", "num_steps", "clip"))
 def finetune(module, optimizer, cfg: OnlineConfig, batch_size: int, num_steps: int, state: ens.TrainState,
-             offline_x, offline_y, buf: ReplayBuffer, obs_norm, act_norm, grad_step0, key):  # fmt: skip
+             offline_x, offline_y, buf: ReplayBuffer, obs_norm, act_norm, grad_step0, key, clip: float = 0.0):  # fmt: skip
     """`num_steps` gradient steps on the mixture; returns (state, mean loss per step [num_steps, K], last fraction)."""
     k = ens.ensemble_size(state.params)
-    on_x, on_y = world_model_targets(obs_norm, act_norm, buf.obs, buf.act, buf.next_obs)
+    on_x, on_y = world_model_targets(obs_norm, act_norm, buf.obs, buf.act, buf.next_obs, clip)
     on_x, on_y = on_x.astype(offline_x.dtype), on_y.astype(offline_y.dtype)
     n_off = offline_x.shape[0]
     n_on = jnp.maximum(buf.size, 1)

@@ -142,7 +142,8 @@ class OnlineTrainer:
             raise ValueError("params.wm: online fine-tuning needs a world model (a 'poir' agent)")
         opt = ens.make_optimizer(agent.config.train)
         obs, act, nxt = (jnp.asarray(a, jax.tree_util.tree_leaves(params.wm)[0].dtype) for a in offline)
-        off_x, off_y = world_model_targets(params.obs_norm, params.act_norm, obs, act, nxt)
+        clip = agent.config.normalizer.clip if agent.config.normalize else 0.0
+        off_x, off_y = world_model_targets(params.obs_norm, params.act_norm, obs, act, nxt, clip)
         if off_x.shape[0] < agent.config.train.batch_size:
             raise ValueError(f"batch_size: {agent.config.train.batch_size} exceeds the {off_x.shape[0]} offline transitions")
         n = cfg.num_envs
@@ -184,13 +185,13 @@ class OnlineTrainer:
             cur = params.replace(wm=state.wm.params)
             (o, a, o2, v), outcome = run_sharded(self.collector, cur, jax.random.split(k_collect, n), deploy)
             flat = [x.reshape((-1,) + x.shape[2:]) for x in (o, a, o2, v)]
-            err_now = deployment_error(agent.wm_module, state.wm.params, params.obs_norm, params.act_norm, *flat)
-            err_off = deployment_error(agent.wm_module, params.reward_wm, params.obs_norm, params.act_norm, *flat)
+            err_now = deployment_error(agent.wm_module, state.wm.params, params.obs_norm, params.act_norm, *flat, clip)
+            err_off = deployment_error(agent.wm_module, params.reward_wm, params.obs_norm, params.act_norm, *flat, clip)
             buf = rb.add(state.buffer, *flat)
             wm, losses, frac = finetune(agent.wm_module, opt, cfg, agent.config.train.batch_size,
                                         self.grad_steps_per_round, state.wm, off_x, off_y, buf,
                                         params.obs_norm, params.act_norm, state.round * self.grad_steps_per_round,
-                                        k_train)  # fmt: skip
+                                        k_train, clip)  # fmt: skip
             state = RunState(wm=wm, buffer=buf, key=key, round=state.round + 1)
             first = np.asarray(outcome["first_success"])
             log = {

@@ -92,3 +92,47 @@ def test_no_prior_ablation_samples_uniformly_in_bounds(trained):
     assert raw.std() > 0.3  # uniform in [-1, 1] has std 0.58, the prior's actions far less
     a = np.asarray(agent.plan(params, jnp.zeros(2), jax.random.PRNGKey(0)))
     assert np.all(np.abs(a) <= 1.0)
+
+
+def _timing_agent(reward, timing, horizon=1):
+    planner = dataclasses.replace(SMALL.planner, reward=reward, horizon=horizon, reward_timing=timing)
+    return POIR(dataclasses.replace(SMALL, planner=planner), 2, 2)
+
+
+@pytest.mark.parametrize("reward", ["l2", "dril"])
+def test_next_state_timing_scores_the_state_each_action_leads_to(trained, reward):
+    """H = 1: the return of each trajectory is the reward of the predicted next state of its own head."""
+    from poir_mjx.core import ensemble as ens
+    from poir_mjx.core.rewards import dril_reward
+
+    _, params, _, _ = trained
+    agent = _timing_agent(reward, "next_state")
+    obs = jnp.array([0.3, 0.25])
+    ret, first = agent.rollouts(params, obs, jax.random.PRNGKey(3))
+    s0 = jnp.broadcast_to(params.obs_norm(obs), first.shape[:-1] + (2,))
+    s1 = s0 + ens.apply_each(agent.wm_module, params.wm, jnp.concatenate([s0, first], -1))
+    if reward == "l2":
+        expect = l2_reward(s1.reshape(-1, 2), params.expert_states).reshape(s1.shape[:-1])
+    else:
+        expect = dril_reward(ens.apply_all(agent.bc_module, params.bc, s1))
+    ok = np.isfinite(np.asarray(ret))
+    np.testing.assert_allclose(np.asarray(ret)[ok], np.asarray(expect)[ok], rtol=1e-5, atol=1e-5)
+    assert np.ptp(np.asarray(ret)[ok]) > 1e-3  # the returns rank the actions
+
+
+@pytest.mark.parametrize("reward", ["l2", "dril"])
+def test_current_state_timing_is_the_printed_algorithm(trained, reward):
+    """The ablation: r(s_1, a_1) at H = 1 is the same for every trajectory, so all returns tie."""
+    _, params, _, _ = trained
+    ret, _ = _timing_agent(reward, "current_state").rollouts(params, jnp.array([0.3, 0.25]), jax.random.PRNGKey(3))
+    r = np.asarray(ret)[np.isfinite(np.asarray(ret))]
+    np.testing.assert_allclose(r, r[0], rtol=1e-6)
+
+
+def test_morel_keeps_scoring_the_transition_it_starts(trained):
+    _, params, _, _ = trained
+    obs = jnp.array([0.3, 0.25])
+    a = _timing_agent("morel", "next_state").rollouts(params, obs, jax.random.PRNGKey(3))
+    b = _timing_agent("morel", "current_state").rollouts(params, obs, jax.random.PRNGKey(3))
+    np.testing.assert_array_equal(np.asarray(a[0]), np.asarray(b[0]))
+    assert np.ptp(np.asarray(a[0])[np.isfinite(np.asarray(a[0]))]) > 0

@@ -67,10 +67,11 @@ def test_interrupted_sweep_resumes_to_the_same_tables(dirs, monkeypatch):
     assert rec["data"]["simulator"].startswith("robosuite" if DEMO_SIM == "robosuite" else "MJX")
     assert len(rec["wilson95"]) == 2
     assert "scripted expert" in (full / "lift.md").read_text()
+    assert "Simulator: MJX (mujoco-mjx" in (full / "lift.md").read_text() and rec["simulator"].startswith("MJX")
 
     # Kill the sweep after its first batch (seed 0): seed 0's cells exist, seed 1's do not.
-    real = sw.run_batch
-    monkeypatch.setattr(sw, "run_batch", dies_on_call(real, 2))
+    real = sw.run_episodes
+    monkeypatch.setattr(sw, "run_episodes", dies_on_call(real, 2))
     with pytest.raises(KeyboardInterrupt):
         run(root, cfg_path)
     out = root / "results" / "tiny"
@@ -79,7 +80,7 @@ def test_interrupted_sweep_resumes_to_the_same_tables(dirs, monkeypatch):
     assert not list(out.rglob("*.tmp"))
     done = (out / "cells/lift/EBC/si=0.02_sa=0_seed=0.json").stat().st_mtime_ns
 
-    monkeypatch.setattr(sw, "run_batch", real)
+    monkeypatch.setattr(sw, "run_episodes", real)
     run(root, cfg_path)  # the same command again
     assert (out / "cells/lift/EBC/si=0.02_sa=0_seed=0.json").stat().st_mtime_ns == done  # not recomputed
     assert (out / "lift.csv").read_text() == (full / "lift.csv").read_text()
@@ -93,7 +94,21 @@ def test_eval_cli_on_the_sweeps_checkpoint(dirs, capsys):
     ckpt = next((root / "ckpt" / "lift").glob("policy-seed0-*.ckpt"))
     rc = cli.main(["eval", "--ckpt", str(ckpt), "--sigma-init", "0.02", "0.3", "--episodes", "2", "--max-steps", "4"])
     out = capsys.readouterr().out
-    assert rc == 0 and "| 0.3 | 0 |" in out and "EBC" in out and "scripted expert" in out
+    assert rc == 0 and "| 0.3 | 0 |" in out and "EBC" in out and "scripted expert" in out and "simulator: MJX" in out
+
+
+@pytest.mark.slow
+@pytest.mark.needs_robosuite
+def test_the_same_sweep_evaluated_in_robosuite(dirs):
+    """simulator: robosuite reuses the demos and checkpoints; its cells and tables name the simulator."""
+    root, _ = dirs
+    cfg_path = root / "tiny-rs.json"
+    cfg_path.write_text(json.dumps({**CFG, "name": "tiny-rs", "seeds": [0], "simulator": "robosuite"}))
+    out = run(root, cfg_path)
+    rec = json.loads((out / "cells/lift/EBC/si=0.3_sa=0_seed=0.json").read_text())
+    assert rec["simulator"].startswith("robosuite 1.5") and rec["episodes"] == 2
+    assert "Simulator: robosuite 1.5" in (out / "lift.md").read_text()
+    assert len(list((root / "ckpt" / "lift").glob("policy-seed0-*.ckpt"))) == 1  # trained once, shared
 
 
 def test_bad_input_exits_nonzero_and_touches_nothing(tmp_path, capsys):

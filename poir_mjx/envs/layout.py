@@ -1,0 +1,37 @@
+"""The policy's observation layout (robomimic's low-dim keys) and each dimension's physical kind."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from poir_mjx.envs.tasks import task_files
+
+# Robot part of the layout: key, size, group (the object's keys come from the task's metadata).
+ROBOT_OBS = (("robot0_eef_pos", 3, "position"), ("robot0_eef_quat", 4, "quaternion"),
+             ("robot0_gripper_qpos", 2, "gripper"))  # fmt: skip
+
+
+def object_key_group(key: str) -> tuple[int, str]:
+    """(size, group) of one of robosuite's object observables, e.g. cube_pos, Can_to_robot0_eef_quat."""
+    if key.endswith("_quat"):
+        return 4, "quaternion"
+    if key.endswith("_pos"):
+        return 3, "position"
+    raise ValueError(f"object observation key {key!r} is not supported")
+
+
+def obs_groups_from_meta(meta: dict) -> tuple[str, ...]:
+    """One group name per dimension of the flat observation: "position", "quaternion" or "gripper"."""
+    groups = [g for _, n, g in ROBOT_OBS for _ in range(n)]
+    for key in meta["object_obs_keys"]:
+        n, g = object_key_group(key)
+        groups += [g] * n
+    if len(groups) - 9 != meta["object_obs_size"]:
+        raise ValueError(f"object_obs_keys: sizes add up to {len(groups) - 9}, not object_obs_size {meta['object_obs_size']}")
+    return tuple(groups)
+
+
+def obs_groups(task: str, envs_dir: str | Path | None = None) -> tuple[str, ...]:
+    """The groups of `task`'s observation, read from envs/<task>.json (no model compilation)."""
+    return obs_groups_from_meta(json.loads(task_files(task, envs_dir).meta.read_text()))

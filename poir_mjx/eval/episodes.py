@@ -1,0 +1,39 @@
+"""Evaluation episodes in either simulator, behind one call, and the test that compares the two."""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from poir_mjx.core.agent import POIR
+from poir_mjx.envs.env import make_env, make_params
+from poir_mjx.eval import robosuite_eval
+from poir_mjx.eval.methods import Method
+from poir_mjx.eval.rollout import make_evaluator, run_batch
+
+SIMULATORS = ("mjx", "robosuite")
+
+
+@functools.lru_cache(maxsize=None)
+def mjx_evaluator(task: str, method: Method, agent: POIR, steps: int):
+    """One compiled MJX evaluator per (task, method, agent config, steps), reused across cells and runs."""
+    return make_evaluator(make_env(task), method.policy_fn(agent), steps)
+
+
+def run_episodes(simulator: str, task: str, method: Method, agent: POIR, params, keys, sigma_init, sigma_action,
+                 steps: int, workers: int = 2, progress: bool = True) -> dict[str, np.ndarray]:  # fmt: skip
+    """One episode per key (perturbations per episode); {"first_success", "diverged", "steps"} as numpy arrays."""
+    if simulator == "robosuite":
+        return robosuite_eval.evaluate(task, method.policy_fn(agent), params, keys, sigma_init, sigma_action, steps,
+                                       workers, progress=progress)  # fmt: skip
+    if simulator != "mjx":
+        raise ValueError(f"simulator: {simulator!r} is not one of {SIMULATORS}")
+    return run_batch(mjx_evaluator(task, method, agent, steps), params, keys, make_params(sigma_init, sigma_action))
+
+
+def agreement_p_value(k1: int, n1: int, k2: int, n2: int) -> float:
+    """Two-sided Fisher exact test that two success counts come from the same rate (small p: they differ)."""
+    from scipy.stats import fisher_exact
+
+    return float(fisher_exact([[k1, n1 - k1], [k2, n2 - k2]]).pvalue)

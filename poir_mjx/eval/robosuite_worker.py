@@ -1,0 +1,88 @@
+"""A robosuite worker process for ``eval/robosuite_eval.py``: ``python -m poir_mjx.eval.robosuite_worker TASK N``.
+
+Reads pickled messages on stdin and answers each on stdout (robosuite's own prints go to stderr).
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import sys
+
+import numpy as np
+
+from poir_mjx.data.robomimic import LOW_DIM_KEYS
+
+
+def _flat_obs(o) -> np.ndarray:
+    return np.concatenate([np.asarray(o["object-state" if k == "object" else k], np.float32) for k in LOW_DIM_KEYS])
+
+
+def serve(recv, send, task: str, n_envs: int) -> None:
+    """A process holding `n_envs` robosuite environments; answers reset/step messages until "close".
+
+    Every reply is (obs [n_envs, d], success [n_envs], diverged [n_envs]); an environment that is
+    not stepping (diverged or unused) repeats its last observation (zeros before its first episode).
+    The first message must be a "reset" with at least one episode.
+    """
+    import logging
+
+    from poir_mjx.envs.tasks import make_robosuite
+
+    logging.getLogger("robosuite_logs").setLevel(logging.ERROR)
+    envs, last = [None] * n_envs, [None] * n_envs
+    noise, sig_a, alive = [None] * n_envs, np.zeros(n_envs), np.zeros(n_envs, bool)
+    while True:
+        msg = recv()
+        if msg[0] == "close":
+            break
+        success, diverged = np.zeros(n_envs, bool), np.zeros(n_envs, bool)
+        if msg[0] == "reset":  # ("reset", [(seed, sigma_init, sigma_action), ...])
+            alive[:] = False
+            for j, (seed, si, sa) in enumerate(msg[1]):
+                # A fresh environment per episode, built with the episode's seed and noise: robosuite
+                # rebuilds its model at every reset anyway (hard reset), and only construction seeds
+                # all of its draws (arm noise, object placement, Lift's cube size).
+                if envs[j] is not None:
+                    envs[j].close()
+                envs[j] = make_robosuite(task, seed=int(seed), initialization_noise={"magnitude": float(si), "type": "gaussian"})
+                noise[j] = np.random.default_rng(np.random.SeedSequence(int(seed)).spawn(1)[0])
+                sig_a[j], alive[j] = float(sa), True
+                last[j] = _flat_obs(envs[j].reset())
+                success[j] = bool(envs[j]._check_success())
+        else:  # ("step", actions [n_envs, 7], stop [n_envs]): end the flagged episodes, step the others
+            actions = msg[1]
+            alive &= ~np.asarray(msg[2], bool)
+            for j in np.flatnonzero(alive):
+                env = envs[j]
+                a = np.asarray(actions[j], np.float64) + sig_a[j] * noise[j].standard_normal(actions.shape[1])
+                try:
+                    o, _, _, _ = env.step(a)
+                    ok = bool(np.all(np.isfinite(env.sim.data.qpos)) and np.all(np.isfinite(env.sim.data.qvel)))
+                except Exception:  # MuJoCo's instability errors: the episode diverged
+                    ok = False
+                if ok:
+                    last[j], success[j] = _flat_obs(o), bool(env._check_success())
+                else:
+                    alive[j], diverged[j] = False, True
+        width = next(len(x) for x in last if x is not None)
+        send((np.stack([x if x is not None else np.zeros(width, np.float32) for x in last]), success, diverged))
+    for env in envs:
+        if env is not None:
+            env.close()
+
+
+def main() -> None:
+    out = os.fdopen(os.dup(1), "wb")  # the message channel; fd 1 then points at stderr
+    os.dup2(2, 1)
+    inp = sys.stdin.buffer
+
+    def send(x):
+        pickle.dump(x, out)
+        out.flush()
+
+    serve(lambda: pickle.load(inp), send, sys.argv[1], int(sys.argv[2]))
+
+
+if __name__ == "__main__":
+    main()
