@@ -85,6 +85,8 @@ def main(argv=None) -> int:
     sp.add_argument("--results", type=Path, default=Path("results"))
     sp.add_argument("--data", type=Path, default=Path("data/demos"))
     sp.add_argument("--checkpoints", type=Path, default=Path("checkpoints"))
+    sp.add_argument("--replace-config", action="store_true",
+                    help="run a changed config in an existing run folder (cells made with other settings are recomputed)")
     ep = sub.add_parser("eval", help="evaluate a checkpoint on a noise grid (make eval CKPT=...)")
     ep.add_argument("--ckpt", required=True, type=Path)
     ep.add_argument("--method", default=None, help="default: EBC for a policy checkpoint, POIR-DRIL for a POIR one")
@@ -143,7 +145,7 @@ def main(argv=None) -> int:
 
         select_device(cfg.device, f"{args.config}: field 'device'")
         jax.config.update("jax_enable_x64", cfg.x64)  # before any array exists
-        out = run_sweep(cfg, args.results, args.data, args.checkpoints)
+        out = run_sweep(cfg, args.results, args.data, args.checkpoints, replace_config=args.replace_config)
         print((out / "summary.md").read_text())
         print(f"sweep {cfg.name}: tables in {out}/ (summary.md, <task>.md/.csv/.png)")
         return 0

@@ -52,6 +52,8 @@ def _plain(params: POIRParams) -> dict:
 
 def read_blob(path: Path, fmt: str = FORMAT) -> dict:
     """The msgpack mapping stored in `path`, which must carry format `fmt`; errors name the file and field."""
+    if path.is_dir():
+        raise CheckpointError(f"{path}: is a directory, expected a checkpoint file")
     if not path.is_file():
         raise CheckpointError(f"{path}: no such checkpoint file")
     try:

@@ -51,8 +51,11 @@ def env_args(task: str, sigma_init: float) -> dict:
     return {"env_name": ENV_NAMES[task], "type": 1, "env_version": robosuite.__version__, "env_kwargs": kw}
 
 
-def demo_path(task: str, out: Path, simulator: str = "robosuite") -> Path:
-    return Path(out) / (f"{task}.hdf5" if simulator == "robosuite" else f"{task}-{simulator}.hdf5")
+def demo_path(task: str, out: Path, simulator: str = "robosuite", num: int = 200) -> Path:
+    """data/demos/<task>[-<simulator>][-n<num>].hdf5: 200 robosuite demos keep the plain name, and a
+    different count or simulator never overwrites another's file."""
+    name = task + ("" if simulator == "robosuite" else f"-{simulator}") + ("" if num == 200 else f"-n{num}")
+    return Path(out) / f"{name}.hdf5"
 
 
 def existing_matches(path: Path, info: dict) -> bool:
@@ -74,7 +77,7 @@ def generate(task: str, num: int, seed: int, sigma_init: float, out: Path, progr
 
     if simulator not in SIMULATORS:
         raise ValueError(f"simulator: expected one of {', '.join(SIMULATORS)}, got {simulator!r}")
-    path = demo_path(task, out, simulator)
+    path = demo_path(task, out, simulator, num)
     info_fn = mjx_demos.generator_info if simulator == "mjx" else generator_info
     info = info_fn(task, num, seed, sigma_init)
     if existing_matches(path, info):

@@ -74,10 +74,15 @@ def read_env_args(path: str | Path) -> dict:
         raw = f["data"].attrs.get("env_args")
         if raw is None:
             raise _err(path, None, "data.attrs['env_args']", "missing attribute")
+        if not isinstance(raw, (str, bytes)):
+            raise _err(path, None, "data.attrs['env_args']", f"expected a JSON string, got {type(raw).__name__}")
         try:
-            return json.loads(raw)
+            env_args = json.loads(raw)
         except json.JSONDecodeError as e:
             raise _err(path, None, "data.attrs['env_args']", f"not valid JSON ({e})") from e
+        if not isinstance(env_args, dict):
+            raise _err(path, None, "data.attrs['env_args']", "expected a JSON object")
+        return env_args
 
 
 def read_transitions(
@@ -93,6 +98,8 @@ def read_transitions(
     `filter_key` selects the demos listed in ``mask/<filter_key>``.
     """
     path = str(path)
+    if os.path.isdir(path):
+        raise DatasetError(f"{path}: is a directory, expected a robomimic HDF5 file")
     if not os.path.isfile(path):
         raise DatasetError(f"{path}: no such file")
     try:
@@ -180,6 +187,8 @@ def _attr(v):
             return json.loads(v)
         except json.JSONDecodeError:
             return v
+    if isinstance(v, np.ndarray):
+        return v.tolist() if v.size != 1 else v.item()
     return v.item() if hasattr(v, "item") else v
 
 

@@ -37,7 +37,9 @@ from poir_mjx.envs.env import make_env, make_params
 from poir_mjx.envs.layout import obs_groups
 from poir_mjx.envs.tasks import TASKS
 from poir_mjx.eval.methods import METHODS, Method, get_method
+from poir_mjx.eval import run_folder
 from poir_mjx.eval.episodes import run_episodes
+from poir_mjx.eval.run_folder import check_run_name
 from poir_mjx.eval.rollout import episode_keys
 from poir_mjx.eval.stats import wilson_interval
 from poir_mjx.versions import simulator_line
@@ -95,6 +97,8 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
         raw = json.loads(path.read_text())
     except FileNotFoundError:
         raise ConfigError(f"{path}: no such config file") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{path}: is a directory, expected a sweep config file (JSON)") from None
     except json.JSONDecodeError as e:
         raise ConfigError(f"{path}: not valid JSON ({e})") from None
     if not isinstance(raw, dict):
@@ -126,6 +130,7 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
         kw[k] = v
     if "name" not in kw:
         raise ConfigError(f"{path}: field 'name' is required")
+    check_run_name(kw["name"], str(path))
     cfg = SweepConfig(**kw)
     for t in cfg.tasks:
         if t not in TASKS:
@@ -147,6 +152,8 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
     for fld in ("episodes", "max_steps", "num_demos", "demo_batch", "workers"):
         if getattr(cfg, fld) <= 0:
             raise ConfigError(f"{path}: field '{fld}' must be positive")
+    if cfg.epochs < 0:
+        raise ConfigError(f"{path}: field 'epochs' must be positive (or 0: the preset's), got {cfg.epochs}")
     try:
         preset(cfg.preset)
     except ConfigError as e:
@@ -158,6 +165,10 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
     for task, f in cfg.demo_files.items():
         if task not in TASKS:
             raise ConfigError(f"{path}: field 'demo_files': unknown task {task!r}")
+        if task not in cfg.tasks:
+            raise ConfigError(f"{path}: field 'demo_files': task {task!r} is not in field 'tasks'")
+        if Path(f).is_dir():
+            raise ConfigError(f"{path}: field 'demo_files.{task}': {f} is a directory, expected a robomimic HDF5 file")
         if not Path(f).is_file():
             raise ConfigError(f"{path}: field 'demo_files.{task}': no such file {f}")
     return cfg
@@ -183,17 +194,32 @@ def _hash(obj) -> str:
 
 
 # ---------------------------------------------------------------------------------- data / training
-def demos_for(cfg: SweepConfig, task: str, data_dir: Path) -> tuple[Path, dict]:
-    """The demo file for `task` (made on first use) and its provenance line."""
+def demos_for(cfg: SweepConfig, task: str, data_dir: Path, progress: bool = True) -> tuple[Path, dict]:
+    """The demo file for `task` (made on first use) and its provenance, with a digest of its content
+    ("sha256": the transitions the agents train on), which keys the checkpoints and the cells."""
     if task in cfg.demo_files:
         path = Path(cfg.demo_files[task])
-        return path, {"source": "file", "path": str(path)}
+        return path, {"source": "file", "path": str(path), "sha256": content_digest(path, task)}
     from poir_mjx.data.demos import generate
 
     path = generate(task, cfg.num_demos, seed=0, sigma_init=0.02, out=data_dir, simulator=cfg.demo_simulator,
-                    batch=cfg.demo_batch)  # fmt: skip
+                    batch=cfg.demo_batch, progress=progress)  # fmt: skip
     tr = read_transitions(path, task=task, max_demos=1)
-    return path, {"source": "scripted expert", **tr.provenance.get("poir_mjx_generator", {})}
+    generator = tr.provenance.get("poir_mjx_generator", {})
+    if not isinstance(generator, dict):
+        raise DatasetError(f"{path}: field data.attrs['poir_mjx_generator'] is not a JSON object")
+    return path, {"source": "scripted expert", **generator,
+                  "sha256": content_digest(path, task)}  # fmt: skip
+
+
+def content_digest(path: Path, task: str) -> str:
+    """sha256 of the demos' names and (obs, actions, next_obs) as read for training: a replaced or
+    corrupted file at the same path gives another digest, a byte-different copy of the same data not."""
+    tr = read_transitions(path, task=task)
+    h = hashlib.sha256(json.dumps([tr.demo_names, list(tr.obs_keys)]).encode())
+    for a in (tr.obs, tr.actions, tr.next_obs):
+        h.update(np.ascontiguousarray(a, np.float32).tobytes())
+    return h.hexdigest()[:16]
 
 
 def train_or_load(method: Method, cfg: SweepConfig, task: str, seed: int, demo_path: Path, provenance: dict,
@@ -233,8 +259,9 @@ def cell_path(out: Path, task: str, method: str, si: float, sa: float, seed: int
     return out / "cells" / task / method / f"si={si:g}_sa={sa:g}_seed={seed}.json"
 
 
-def cell_hash(cfg: SweepConfig, task: str, method: str) -> str:
+def cell_hash(cfg: SweepConfig, task: str, method: str, demo_sha256: str) -> str:
     relevant = {
+        "demo_sha256": demo_sha256,
         "preset": _config_dict(get_method(method).agent_config(base_config(cfg)), get_method(method).online),
         "episodes": cfg.episodes,
         "max_steps": cfg.max_steps,
@@ -248,31 +275,39 @@ def cell_hash(cfg: SweepConfig, task: str, method: str) -> str:
 
 
 def read_cell(path: Path, chash: str) -> dict | None:
+    """The cell's record if it was made with config hash `chash`; None if absent or from another config."""
     try:
         rec = json.loads(path.read_text())
-    except (FileNotFoundError, json.JSONDecodeError):
+    except FileNotFoundError:
         return None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise ConfigError(f"{path}: not a readable cell record ({e}); delete it to recompute the cell") from None
+    if not isinstance(rec, dict):
+        raise ConfigError(f"{path}: not a cell record (expected a JSON object); delete it to recompute the cell")
     return rec if rec.get("config_hash") == chash else None
 
 
 def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: Path = Path("data/demos"),
-              ckpt_dir: Path = Path("checkpoints"), progress: bool = True) -> Path:  # fmt: skip
+              ckpt_dir: Path = Path("checkpoints"), progress: bool = True, replace_config: bool = False) -> Path:  # fmt: skip
     from tqdm import tqdm
 
-    out = results_root / cfg.name
+    out = results_root / check_run_name(cfg.name, "sweep config")
+    run_folder.prepare(out, dataclasses.asdict(cfg), replace_config)  # before any work: writable, one config
     grid = [(si, sa) for si in cfg.sigma_init for sa in cfg.sigma_action]
     cells = [(t, m, s) for t in cfg.tasks for m in cfg.methods for s in cfg.seeds]
     total_eps = len(cells) * len(grid) * cfg.episodes
     bar = tqdm(total=total_eps, desc=f"sweep {cfg.name}", unit="ep", disable=not progress)
     t_start, done_now = time.perf_counter(), 0
+    demos = {task: demos_for(cfg, task, data_dir, progress) for task in cfg.tasks}  # (path, provenance)
+    digests = {task: prov["sha256"] for task, (_, prov) in demos.items()}
     for task, mname, seed in cells:
         method = get_method(mname)
-        chash = cell_hash(cfg, task, mname)
+        chash = cell_hash(cfg, task, mname, digests[task])
         paths = [cell_path(out, task, mname, si, sa, seed) for si, sa in grid]
         if all(read_cell(p, chash) for p in paths):
             bar.update(len(grid) * cfg.episodes)
             continue
-        demo_path, prov = demos_for(cfg, task, data_dir)
+        demo_path, prov = demos[task]
         agent, params, ckpt = train_or_load(method, cfg, task, seed, demo_path, prov, ckpt_dir, progress)
         si = np.repeat([g[0] for g in grid], cfg.episodes)
         sa = np.repeat([g[1] for g in grid], cfg.episodes)
@@ -319,7 +354,7 @@ def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: 
         bar.update(len(si))
         bar.set_postfix(eps_per_s=f"{done_now / (time.perf_counter() - t_start):.2f}")
     bar.close()
-    write_tables(cfg, out)
+    write_tables(cfg, out, digests)
     return out
 
 
@@ -355,10 +390,10 @@ def _online_trainer(task: str, agent: POIR, steps: int):
 
 
 # ---------------------------------------------------------------------------------- tables
-def collect(cfg: SweepConfig, out: Path, task: str) -> dict:
+def collect(cfg: SweepConfig, out: Path, task: str, digest: str) -> dict:
     table = {}
     for mname in cfg.methods:
-        chash = cell_hash(cfg, task, mname)
+        chash = cell_hash(cfg, task, mname, digest)
         for si in cfg.sigma_init:
             for sa in cfg.sigma_action:
                 recs = [read_cell(cell_path(out, task, mname, si, sa, s), chash) for s in cfg.seeds]
@@ -376,7 +411,8 @@ def _col(si, sa, cfg):
     return f"σ_init {si:g}" + (f", σ_act {sa:g}" if len(cfg.sigma_action) > 1 or sa else "")
 
 
-def write_tables(cfg: SweepConfig, out: Path) -> str:
+def write_tables(cfg: SweepConfig, out: Path, digests: dict[str, str]) -> str:
+    """Tables and plots of the cells made with the demo data whose content digest is `digests[task]`."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -384,7 +420,7 @@ def write_tables(cfg: SweepConfig, out: Path) -> str:
 
     sections = []
     for task in cfg.tasks:
-        table = collect(cfg, out, task)
+        table = collect(cfg, out, task, digests[task])
         if not table:
             continue
         data = next(iter(table.values()))["data"]
@@ -431,7 +467,7 @@ def write_tables(cfg: SweepConfig, out: Path) -> str:
         ax.legend(fontsize=8)
         _save_png(fig, out / f"{task}.png")
         section = md_text + f"\n![{task}]({task}.png)\n"
-        curves = write_learning_curves(cfg, out, task)
+        curves = write_learning_curves(cfg, out, task, digests[task])
         if curves:
             atomic_write_text(out / f"{task}.md", md_text + "\n" + curves)
             section += "\n" + curves + f"\n![{task} online]({task}-online.png)\n"
@@ -442,13 +478,13 @@ def write_tables(cfg: SweepConfig, out: Path) -> str:
     return summary
 
 
-def write_learning_curves(cfg: SweepConfig, out: Path, task: str) -> str:
+def write_learning_curves(cfg: SweepConfig, out: Path, task: str, digest: str) -> str:
     """Markdown table and `<task>-online.png` of the online methods' curves ("" if there are none)."""
     import matplotlib.pyplot as plt
 
     rows, lines = [], []
     for m in (m for m in cfg.methods if get_method(m).online):
-        chash = cell_hash(cfg, task, m)
+        chash = cell_hash(cfg, task, m, digest)
         for si in cfg.sigma_init:
             for sa in cfg.sigma_action:
                 recs = [read_cell(cell_path(out, task, m, si, sa, s), chash) for s in cfg.seeds]

@@ -14,7 +14,7 @@ from poir_mjx.data.robomimic import read_transitions
 @pytest.mark.current_stack
 def test_mjx_demos_are_successful_episodes_in_robomimic_layout(tmp_path, capsys):
     path = generate("lift", num=2, seed=0, sigma_init=0.02, out=tmp_path, progress=False, simulator="mjx", batch=2)
-    assert path == demo_path("lift", tmp_path, "mjx") and path.name == "lift-mjx.hdf5"
+    assert path == demo_path("lift", tmp_path, "mjx", 2) and path.name == "lift-mjx-n2.hdf5"  # never the shared 200-demo file
     tr = read_transitions(path, task="lift")
     assert len(tr.demo_names) == 2 and tr.obs.shape[1] == 19 and tr.actions.shape[1] == 7
     n0 = int(tr.demo_lengths[0])

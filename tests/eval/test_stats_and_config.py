@@ -45,8 +45,9 @@ def test_registry_and_configs():
 def test_offline_cells_and_checkpoints_ignore_online_settings():
     a = load_sweep_config("experiments/cpu-small.json")
     b = dataclasses.replace(a, overrides={"online.total_env_steps": 123})
-    assert cell_hash(a, "lift", "POIR-DRIL") == cell_hash(b, "lift", "POIR-DRIL")
-    assert cell_hash(a, "lift", "POIR-DRIL online") != cell_hash(b, "lift", "POIR-DRIL online")
+    assert cell_hash(a, "lift", "POIR-DRIL", "d") == cell_hash(b, "lift", "POIR-DRIL", "d")
+    assert cell_hash(a, "lift", "POIR-DRIL online", "d") != cell_hash(b, "lift", "POIR-DRIL online", "d")
+    assert cell_hash(a, "lift", "POIR-DRIL", "d") != cell_hash(a, "lift", "POIR-DRIL", "e")  # other demo content
     m = get_method("POIR-DRIL online")
     assert m.training_config(base_config(b)) == get_method("POIR-DRIL").training_config(base_config(a))
 

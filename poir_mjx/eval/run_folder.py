@@ -1,0 +1,49 @@
+"""A sweep's results folder: a plain name under the results root, one config per folder, writable.
+
+``results/<name>/config.json`` records the sweep config the folder's cells were made with; a run
+with a different config under the same name is refused (unless the caller asks to replace it), so
+a config that reuses a published run's name cannot silently mix its cells into that run.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import tempfile
+from pathlib import Path
+
+from poir_mjx.atomic import atomic_write_text
+from poir_mjx.core.config import ConfigError
+
+NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
+
+
+def check_run_name(name: str, source: str) -> str:
+    """A run name is a plain folder name: letters, digits, '.', '_', '-', not starting with '.'."""
+    if not isinstance(name, str) or not NAME.match(name) or len(name) > 100:
+        raise ConfigError(f"{source}: field 'name' must be a plain folder name (letters, digits, '.', '_', '-'), got {name!r}")
+    return name
+
+
+def prepare(out: Path, config: dict, replace_config: bool = False) -> None:
+    """Create `out`, check it is writable, and record `config` there (or check it matches the recorded one)."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(dir=out, prefix=".write-check.")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise ConfigError(f"{out}: results folder is not writable ({e.strerror})") from None
+    recorded = out / "config.json"
+    text = json.dumps(config, indent=2, sort_keys=True) + "\n"
+    if recorded.is_file() and not replace_config:
+        try:
+            old = json.loads(recorded.read_text())
+        except (OSError, json.JSONDecodeError) as e:
+            raise ConfigError(f"{recorded}: unreadable ({e})") from None
+        if old != json.loads(text):
+            diff = sorted(k for k in set(old) | set(config) if old.get(k) != config.get(k))
+            raise ConfigError(f"{recorded}: this run folder was made with a different config (fields {diff}); "
+                              "use another name, or --replace-config to recompute the changed cells here")  # fmt: skip
+    atomic_write_text(recorded, text)
