@@ -19,18 +19,19 @@ import numpy as np
 from poir_mjx.atomic import atomic_write_text
 from poir_mjx.bench.env import device_name
 from poir_mjx.envs.env import make_params
-from poir_mjx.eval import sweep as sw
+from poir_mjx.eval.artifacts import demos_for, train_or_load
 from poir_mjx.eval.episodes import mjx_evaluator
 from poir_mjx.eval.methods import get_method
 from poir_mjx.eval.rollout import run_batch
+from poir_mjx.eval.sweep_config import SweepConfig
 
 
 def bench(preset: str, method_name: str, episodes: int, steps: int, num_demos: int) -> dict:
-    cfg = sw.SweepConfig(name="bench", preset=preset, methods=(method_name,), episodes=episodes,
+    cfg = SweepConfig(name="bench", preset=preset, methods=(method_name,), episodes=episodes,
                          max_steps=steps, num_demos=num_demos)  # fmt: skip
     method = get_method(method_name)
-    demo_path, prov = sw.demos_for(cfg, "lift", Path("data/demos"))
-    agent, params, _ = sw.train_or_load(method, cfg, "lift", 0, demo_path, prov, Path("checkpoints"))
+    demo_path, prov = demos_for(cfg, "lift", Path("data/demos"))
+    agent, params, _ = train_or_load(method, cfg, "lift", 0, demo_path, prov, Path("checkpoints"))
     evaluator = mjx_evaluator("lift", method, agent, steps)
     env_params = make_params(np.full(episodes, 0.2), 0.0)
     t0 = time.perf_counter()

@@ -1,0 +1,111 @@
+"""What a sweep makes and reuses: the expert data (and its content digest), trained agents
+(checkpoints keyed on config and data), and cell records keyed on everything that shapes them."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import jax
+import numpy as np
+
+from poir_mjx.core import checkpoint
+from poir_mjx.core.agent import POIR
+from poir_mjx.core.config import ConfigError
+from poir_mjx.data.robomimic import LOW_DIM_KEYS, DatasetError, read_transitions
+from poir_mjx.envs.layout import obs_groups
+from poir_mjx.eval.methods import Method, get_method
+from poir_mjx.eval.sweep_config import SweepConfig, base_config, config_dict, short_hash
+
+
+def demos_for(cfg: SweepConfig, task: str, data_dir: Path, progress: bool = True) -> tuple[Path, dict]:
+    """The demo file for `task` (made on first use) and its provenance, with a digest of its content
+    ("sha256": the transitions the agents train on), which keys the checkpoints and the cells."""
+    if task in cfg.demo_files:
+        path = Path(cfg.demo_files[task])
+        return path, {"source": "file", "path": str(path), "sha256": content_digest(path, task)}
+    from poir_mjx.data.demos import generate
+
+    path = generate(task, cfg.num_demos, seed=0, sigma_init=0.02, out=data_dir, simulator=cfg.demo_simulator,
+                    batch=cfg.demo_batch, progress=progress)  # fmt: skip
+    tr = read_transitions(path, task=task, max_demos=1)
+    generator = tr.provenance.get("poir_mjx_generator", {})
+    if not isinstance(generator, dict):
+        raise DatasetError(f"{path}: field data.attrs['poir_mjx_generator'] is not a JSON object")
+    return path, {"source": "scripted expert", **generator,
+                  "sha256": content_digest(path, task)}  # fmt: skip
+
+
+def content_digest(path: Path, task: str) -> str:
+    """sha256 of the demos' names and (obs, actions, next_obs) as read for training: a replaced or
+    corrupted file at the same path gives another digest, a byte-different copy of the same data not."""
+    tr = read_transitions(path, task=task)
+    h = hashlib.sha256(json.dumps([tr.demo_names, list(tr.obs_keys)]).encode())
+    for a in (tr.obs, tr.actions, tr.next_obs):
+        h.update(np.ascontiguousarray(a, np.float32).tobytes())
+    return h.hexdigest()[:16]
+
+
+def train_or_load(method: Method, cfg: SweepConfig, task: str, seed: int, demo_path: Path, provenance: dict,
+                  ckpt_dir: Path, progress: bool = True):  # fmt: skip
+    """The trained agent for (method's kind, task, seed), from its checkpoint if one matches."""
+    from tqdm import tqdm
+
+    tcfg = method.training_config(base_config(cfg))
+    layout = {"task": task, "obs_keys": list(LOW_DIM_KEYS), "seed": seed, "demos": provenance}
+    key = short_hash([config_dict(tcfg, online=False), layout])
+    path = ckpt_dir / task / f"{method.agent_kind}-seed{seed}-{key}.ckpt"
+    if path.exists():
+        agent, params, _ = checkpoint.load(path, tcfg, layout)
+    else:
+        tr = read_transitions(demo_path, task=task)
+        groups = obs_groups(task)
+        if tr.obs.shape[1] != len(groups):
+            raise DatasetError(f"{demo_path}: observations {list(LOW_DIM_KEYS)} are {tr.obs.shape[1]} wide, "
+                               f"task {task} has {len(groups)}")  # fmt: skip
+        agent = POIR(tcfg, tr.obs.shape[1], tr.actions.shape[1])
+        bar = tqdm(total=tcfg.train.epochs * (2 if method.agent_kind == "poir" else 1),
+                   desc=f"train {task} {method.agent_kind} seed {seed}", unit="epoch", disable=not progress)  # fmt: skip
+
+        def cb(name, epoch, loss):
+            bar.update(1)
+            bar.set_postfix({name: f"{float(np.mean(loss)):.4f}"})
+
+        params, _ = agent.fit(jax.random.PRNGKey(seed), tr.obs, tr.actions, tr.next_obs, obs_groups=groups,
+                              train_world_model=method.agent_kind == "poir", callback=cb)  # fmt: skip
+        bar.close()
+        checkpoint.save(path, agent, params, layout)
+    return POIR(method.agent_config(base_config(cfg)), agent.obs_size, agent.act_size), params, path
+
+
+def cell_path(out: Path, task: str, method: str, si: float, sa: float, seed: int) -> Path:
+    return out / "cells" / task / method / f"si={si:g}_sa={sa:g}_seed={seed}.json"
+
+
+def cell_hash(cfg: SweepConfig, task: str, method: str, demo_sha256: str) -> str:
+    relevant = {
+        "demo_sha256": demo_sha256,
+        "preset": config_dict(get_method(method).agent_config(base_config(cfg)), get_method(method).online),
+        "episodes": cfg.episodes,
+        "max_steps": cfg.max_steps,
+        "num_demos": cfg.num_demos,
+        "demo_file": cfg.demo_files.get(task),
+        **({"demo_simulator": cfg.demo_simulator} if cfg.demo_simulator != "robosuite" else {}),
+        **({"simulator": cfg.simulator} if cfg.simulator != "mjx" else {}),
+        "x64": cfg.x64,
+    }
+    return short_hash(relevant)
+
+
+def read_cell(path: Path, chash: str) -> dict | None:
+    """The cell's record if it was made with config hash `chash`; None if absent or from another config."""
+    try:
+        rec = json.loads(path.read_text())
+    except FileNotFoundError:
+        return None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise ConfigError(f"{path}: not a readable cell record ({e}); delete it to recompute the cell") from None
+    if not isinstance(rec, dict):
+        raise ConfigError(f"{path}: not a cell record (expected a JSON object); delete it to recompute the cell")
+    return rec if rec.get("config_hash") == chash else None

@@ -1,0 +1,164 @@
+"""A sweep's typed config: the grid, the methods, the data and the simulator, loaded with errors naming
+the file and the field (``experiments/*.json``)."""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import typing
+from pathlib import Path
+
+from poir_mjx.core.config import ConfigError, POIRConfig, apply_overrides, check_fields, preset, to_dict
+from poir_mjx.envs.tasks import TASKS
+from poir_mjx.eval.methods import METHODS, get_method
+from poir_mjx.eval.run_folder import check_run_name
+
+
+@dataclasses.dataclass(frozen=True)
+class SweepConfig:
+    name: str
+    """Run name: results go to results/<name>/."""
+    preset: str = "cpu-small"
+    """POIR config preset (cpu-small, paper)."""
+    tasks: tuple[str, ...] = ("lift",)
+    """Tasks to evaluate."""
+    methods: tuple[str, ...] = ("EBC", "POIR-DRIL")
+    """Methods from the registry (BC, EBC, POIR-L2, POIR-DRIL, POIR-MOREL, POIR-noprior)."""
+    sigma_init: tuple[float, ...] = (0.02, 0.2, 0.4)
+    """Initial arm-joint noise levels."""
+    sigma_action: tuple[float, ...] = (0.0,)
+    """Action noise levels."""
+    seeds: tuple[int, ...] = (0,)
+    """Training and evaluation seeds."""
+    episodes: int = 10
+    """Episodes per cell."""
+    max_steps: int = 400
+    """Control steps per episode (robosuite's horizon is 400)."""
+    num_demos: int = 200
+    """Scripted-expert demonstrations per task (ignored for tasks given in demo_files)."""
+    demo_simulator: str = "robosuite"
+    """Where the scripted expert records its demos: "robosuite" (MuJoCo C, needs robosuite) or "mjx"
+    (vectorised in MJX, no robosuite: the path for a GPU machine)."""
+    demo_batch: int = 16
+    """MJX episodes per compiled batch when demo_simulator is "mjx" (GPU: 256-1024)."""
+    simulator: str = "mjx"
+    """Where the evaluation episodes run: "mjx" (vectorised, one compiled rollout: the GPU path) or
+    "robosuite" (the reference: robosuite's own environment and controller in `workers` processes,
+    the agent's calls batched across them; needs robosuite; online methods fine-tune in MJX only)."""
+    workers: int = 2
+    """robosuite worker processes when simulator is "robosuite" (about one per CPU core)."""
+    device: str = "any"
+    """"gpu" refuses to run unless jax sees a GPU (no silent CPU run), "cpu" forces the CPU, "any" takes jax's default."""
+    demo_files: dict = dataclasses.field(default_factory=dict)
+    """Optional {task: path} of robomimic HDF5 files to use instead of the scripted expert."""
+    epochs: int = 0
+    """If > 0, overrides the preset's training epochs."""
+    overrides: dict = dataclasses.field(default_factory=dict)
+    """Dotted POIR config fields replacing the preset's values, e.g. {"online.total_env_steps": 20000}."""
+    x64: bool = False
+    """MJX physics in float64 (float32 once launched Square's nut mid-grasp); networks and planner stay float32."""
+
+
+def load_sweep_config(path: str | Path) -> SweepConfig:
+    """Parse and validate a sweep config file; errors name the file and the field."""
+    path = Path(path)
+    try:
+        raw = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: no such config file") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{path}: is a directory, expected a sweep config file (JSON)") from None
+    except json.JSONDecodeError as e:
+        raise ConfigError(f"{path}: not valid JSON ({e})") from None
+    if not isinstance(raw, dict):
+        raise ConfigError(f"{path}: expected a JSON object")
+    check_fields(raw, SweepConfig, str(path))
+    hints = typing.get_type_hints(SweepConfig)
+    kw = {}
+    for k, v in raw.items():
+        t = hints[k]
+        if typing.get_origin(t) is tuple:
+            if not isinstance(v, list) or not v:
+                raise ConfigError(f"{path}: field '{k}' must be a non-empty list")
+            item = typing.get_args(t)[0]
+            for x in v:
+                ok = isinstance(x, str) if item is str else (isinstance(x, (int, float)) and not isinstance(x, bool))
+                if item is int:
+                    ok = isinstance(x, int) and not isinstance(x, bool)
+                if not ok:
+                    raise ConfigError(f"{path}: field '{k}' has a {type(x).__name__} item {x!r}, expected {item.__name__}")
+            v = tuple(v)
+        elif t is bool and not isinstance(v, bool):
+            raise ConfigError(f"{path}: field '{k}' must be true or false, got {v!r}")
+        elif t is int and (not isinstance(v, int) or isinstance(v, bool)):
+            raise ConfigError(f"{path}: field '{k}' must be an integer, got {v!r}")
+        elif t is str and not isinstance(v, str):
+            raise ConfigError(f"{path}: field '{k}' must be a string, got {v!r}")
+        elif t is dict and not isinstance(v, dict):
+            raise ConfigError(f"{path}: field '{k}' must be an object")
+        kw[k] = v
+    if "name" not in kw:
+        raise ConfigError(f"{path}: field 'name' is required")
+    check_run_name(kw["name"], str(path))
+    cfg = SweepConfig(**kw)
+    for t in cfg.tasks:
+        if t not in TASKS:
+            raise ConfigError(f"{path}: field 'tasks': unknown task {t!r}; expected one of {', '.join(TASKS)}")
+    for m in cfg.methods:
+        if m not in METHODS:
+            raise ConfigError(f"{path}: field 'methods': unknown method {m!r}; expected one of {', '.join(METHODS)}")
+    for fld in ("sigma_init", "sigma_action"):
+        if not all(math.isfinite(x) and x >= 0 for x in getattr(cfg, fld)):
+            raise ConfigError(f"{path}: field '{fld}': noise levels must be finite and >= 0")
+    if cfg.demo_simulator not in ("robosuite", "mjx"):
+        raise ConfigError(f"{path}: field 'demo_simulator' must be \"robosuite\" or \"mjx\", got {cfg.demo_simulator!r}")
+    if cfg.simulator not in ("mjx", "robosuite"):
+        raise ConfigError(f"{path}: field 'simulator' must be \"mjx\" or \"robosuite\", got {cfg.simulator!r}")
+    if cfg.simulator == "robosuite" and any(get_method(m).online for m in cfg.methods):
+        raise ConfigError(f"{path}: field 'simulator': online methods fine-tune and evaluate in MJX; use \"mjx\"")
+    if cfg.device not in ("any", "cpu", "gpu"):
+        raise ConfigError(f"{path}: field 'device' must be \"any\", \"cpu\" or \"gpu\", got {cfg.device!r}")
+    for fld in ("episodes", "max_steps", "num_demos", "demo_batch", "workers"):
+        if getattr(cfg, fld) <= 0:
+            raise ConfigError(f"{path}: field '{fld}' must be positive")
+    if cfg.epochs < 0:
+        raise ConfigError(f"{path}: field 'epochs' must be positive (or 0: the preset's), got {cfg.epochs}")
+    try:
+        preset(cfg.preset)
+    except ConfigError as e:
+        raise ConfigError(f"{path}: field 'preset': {e}") from None
+    try:
+        base_config(cfg)
+    except ConfigError as e:
+        raise ConfigError(f"{path}: field {e}") from None
+    for task, f in cfg.demo_files.items():
+        if task not in TASKS:
+            raise ConfigError(f"{path}: field 'demo_files': unknown task {task!r}")
+        if task not in cfg.tasks:
+            raise ConfigError(f"{path}: field 'demo_files': task {task!r} is not in field 'tasks'")
+        if Path(f).is_dir():
+            raise ConfigError(f"{path}: field 'demo_files.{task}': {f} is a directory, expected a robomimic HDF5 file")
+        if not Path(f).is_file():
+            raise ConfigError(f"{path}: field 'demo_files.{task}': no such file {f}")
+    return cfg
+
+
+def base_config(cfg: SweepConfig) -> POIRConfig:
+    base = preset(cfg.preset)
+    if cfg.epochs:
+        base = dataclasses.replace(base, train=dataclasses.replace(base.train, epochs=cfg.epochs))
+    return apply_overrides(base, cfg.overrides) if cfg.overrides else base
+
+
+def config_dict(cfg: POIRConfig, online: bool) -> dict:
+    """The config as hashed: offline agents and cells do not depend on the online settings."""
+    d = to_dict(cfg)
+    if not online:
+        d.pop("online")
+    return d
+
+
+def short_hash(obj) -> str:
+    return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()[:16]
