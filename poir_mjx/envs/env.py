@@ -23,6 +23,7 @@ from mujoco import mjx
 from poir_mjx.compat import x64_enabled
 from poir_mjx.envs import osc
 from poir_mjx.envs.tasks import check_task, task_files
+from poir_mjx.envs.variants import ModelVariants, compile_variant, variant_sizes
 
 ACTION_SIZE = 7
 # robomimic's low-dim observation keys (object last), with the sizes for each task.
@@ -145,6 +146,11 @@ class TaskEnv:
     mj_model: mujoco.MjModel
     model: mjx.Model
     meta: dict
+    variants: ModelVariants | None = None  # per-episode object sizes (Lift), variant 0 = `model`
+
+    def model_for(self, variant) -> mjx.Model:
+        """The episode's model: `model`, or its object-size variant (``info["variant"]``)."""
+        return self.model if self.variants is None else self.variants.model(variant)
 
     # ---- static indices (numpy) -------------------------------------------------------------
     @functools.cached_property
@@ -256,12 +262,15 @@ class TaskEnv:
         quat = jnp.zeros(4).at[0].set(jnp.cos(angle / 2)).at[axis].set(jnp.sin(angle / 2))
         return pos, _quat_mul(quat, jnp.asarray(p["init_quat"]))
 
-    def reset_to(self, qpos: jax.Array, rng: jax.Array, params: EnvParams) -> State:
-        """Start an episode from a given qpos (arm, gripper and object as laid out in the model)."""
+    def reset_to(self, qpos: jax.Array, rng: jax.Array, params: EnvParams, variant=0) -> State:
+        """Start an episode from a given qpos (arm, gripper and object as laid out in the model), with
+        object-size variant `variant` (0: the exported model)."""
         i = self._idx
+        m = self.model_for(variant)
         d = mjx.make_data(self.model).replace(qpos=jnp.asarray(qpos, float_dtype()))
-        d = mjx.forward(self.model, d)
+        d = mjx.forward(m, d)
         info = {
+            "variant": jnp.asarray(variant, jnp.int32),
             "rng": rng,
             "step": jnp.zeros((), jnp.int32),
             "first_success": jnp.full((), -1, jnp.int32),
@@ -279,11 +288,16 @@ class TaskEnv:
         return flatten_obs(state.obs)
 
     def reset(self, rng: jax.Array, params: EnvParams) -> State:
+        variant = 0
+        if self.variants is not None:  # robosuite redraws Lift's cube size at every reset
+            rng, k_var = jax.random.split(rng)
+            variant = jax.random.randint(k_var, (), 0, self.variants.count)
         k_qpos, k_ep = jax.random.split(rng)
-        return self.reset_to(self.sample_qpos(k_qpos, params), k_ep, params)
+        return self.reset_to(self.sample_qpos(k_qpos, params, variant), k_ep, params, variant)
 
-    def sample_qpos(self, rng: jax.Array, params: EnvParams) -> jax.Array:
-        """robosuite's reset distribution: noisy initial arm joints, object from its placement sampler."""
+    def sample_qpos(self, rng: jax.Array, params: EnvParams, variant=0) -> jax.Array:
+        """robosuite's reset distribution: noisy initial arm joints, object from its placement sampler
+        (resting on the table whatever the variant's object height)."""
         i, meta = self._idx, self.meta
         k_init, k_obj = jax.random.split(rng)
         qpos = jnp.asarray(self.mj_model.qpos0, float_dtype())
@@ -291,14 +305,16 @@ class TaskEnv:
         qpos = qpos.at[i["arm_qpos"]].set(jnp.asarray(meta["init_qpos"]) + noise)
         qpos = qpos.at[i["grip_qpos"]].set(jnp.asarray(meta["gripper_init_qpos"]))
         pos, quat = self._sample_object_pose(k_obj)
+        if self.variants is not None:  # the placement's bottom offset is the box's half height
+            pos = pos.at[2].add(self.variants.sizes[variant, 2] - self.variants.sizes[0, 2])
         return qpos.at[i["obj_qpos"] : i["obj_qpos"] + 7].set(jnp.concatenate([pos, quat]))
 
     # ---- step ----------------------------------------------------------------------------------
-    def _arm_terms(self, d: mjx.Data):
+    def _arm_terms(self, m: mjx.Model, d: mjx.Data):
         i = self._idx
-        jacp, jacr = mjx.jac(self.model, d, d.site_xpos[i["eef_site"]], self.mj_model.site_bodyid[i["eef_site"]])
+        jacp, jacr = mjx.jac(m, d, d.site_xpos[i["eef_site"]], self.mj_model.site_bodyid[i["eef_site"]])
         dof = i["arm_dof"]
-        mass = mjx.full_m(self.model, d)[dof][:, dof]
+        mass = mjx.full_m(m, d)[dof][:, dof]
         return jacp[dof].T, jacr[dof].T, mass
 
     def step(self, state: State, action: jax.Array) -> State:
@@ -307,7 +323,7 @@ class TaskEnv:
             raise ValueError(f"action: expected shape ({ACTION_SIZE},) per episode, got {action.shape}")
         if not jnp.issubdtype(action.dtype, jnp.floating):
             raise ValueError(f"action: expected a floating-point dtype, got {action.dtype}")
-        m, i, c = self.model, self._idx, self.meta["controller"]
+        m, i, c = self.model_for(state.info["variant"]), self._idx, self.meta["controller"]
         rng, k_noise = jax.random.split(state.info["rng"])
         a = action.astype(float_dtype()) + state.info["sigma_action"] * jax.random.normal(k_noise, (ACTION_SIZE,))
         delta = osc.scale_action(
@@ -330,7 +346,7 @@ class TaskEnv:
             new_pos, new_ori = osc.goal_from_delta(delta, ref_pos, ref_ori, d.site_xmat[i["origin_site"]])
             goal_pos = jnp.where(k == 0, new_pos, goal_pos)
             goal_ori = jnp.where(k == 0, new_ori, goal_ori)
-            jac_pos, jac_ori, mass = self._arm_terms(d)
+            jac_pos, jac_ori, mass = self._arm_terms(m, d)
             tau = osc.osc_torques(
                 goal_pos=goal_pos, goal_ori=goal_ori, ref_pos=ref_pos, ref_ori=ref_ori,
                 jac_pos=jac_pos, jac_ori=jac_ori, qvel=d.qvel[i["arm_dof"]], qpos=d.qpos[i["arm_qpos"]],
@@ -381,7 +397,16 @@ def make_env(task: str, envs_dir: str | None = None) -> TaskEnv:
 def _make_env(task: str, envs_dir: str | None, x64: bool) -> TaskEnv:
     check_task(task)
     mj_model, meta = load_model(task, envs_dir)
-    return TaskEnv(task=task, mj_model=mj_model, model=mjx.put_model(mj_model), meta=meta)
+    model = mjx.put_model(mj_model)
+    variants = None
+    if "object_size" in meta:
+        files = task_files(task, envs_dir)
+        gid = mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_GEOM, meta["object_size"]["geom"])
+        sizes = variant_sizes(meta, mj_model.geom_size[gid])
+        xml, meshdir = files.xml.read_text(), str(files.xml.parent.resolve()) + "/"
+        models = [model] + [mjx.put_model(compile_variant(xml, meshdir, meta, sz)) for sz in sizes[1:]]
+        variants = ModelVariants.build(models, sizes)
+    return TaskEnv(task=task, mj_model=mj_model, model=model, meta=meta, variants=variants)
 
 
 def batched(task: str, envs_dir: str | None = None):

@@ -40,6 +40,7 @@ from poir_mjx.envs.tasks import (
     EXPORT_SEED,
     HORIZON,
     OBJECT_BODY,
+    OBJECT_SIZE_RANGE,
     TASKS,
     check_task,
     make_robosuite,
@@ -286,8 +287,22 @@ def build_spec(task: str):
             k for k in obs if k in env._observables and env._observables[k].modality == "object"
         ],
         "object_obs_size": int(obs["object-state"].shape[0]),
+        **_object_size_meta(env, task),
     }
     return spec, meta, m0
+
+
+def _object_size_meta(env, task: str) -> dict:
+    """Lift's cube: robosuite draws its half-sizes per axis in OBJECT_SIZE_RANGE at every reset
+    (BoxObject, density from the built model); the other tasks' objects have fixed sizes."""
+    if task not in OBJECT_SIZE_RANGE:
+        return {}
+    m = env.sim.model
+    geom = OBJECT_SIZE_RANGE[task]["geom"]
+    g, b = m.geom_name2id(geom), m.body_name2id(OBJECT_BODY[task])
+    density = float(m.body_mass[b] / (8.0 * np.prod(m.geom_size[g])))
+    lo, hi = OBJECT_SIZE_RANGE[task]["size_min"], OBJECT_SIZE_RANGE[task]["size_max"]
+    return {"object_size": {"geom": geom, "size_min": lo, "size_max": hi, "density": round(density, 3)}}
 
 
 def export_task(task: str) -> tuple[str, str]:

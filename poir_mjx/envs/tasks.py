@@ -28,6 +28,10 @@ GRASP_SITE = {
     "nut_assembly_square": "SquareNut_handle_site",
 }
 
+# Objects whose size robosuite redraws at every reset: Lift's BoxObject("cube", size_min, size_max)
+# in robosuite/environments/manipulation/lift.py (half-sizes in metres, per axis).
+OBJECT_SIZE_RANGE = {"lift": {"geom": "cube_g0", "size_min": [0.020, 0.020, 0.020], "size_max": [0.022, 0.022, 0.022]}}
+
 CONTROL_FREQ = 20
 HORIZON = 400
 # Seed passed to robosuite when the model is built (Lift draws its cube size at build time).

@@ -11,6 +11,7 @@ import functools
 
 import jax
 import jax.numpy as jnp
+import mujoco
 import numpy as np
 import pytest
 
@@ -110,6 +111,12 @@ def test_float32_batch_rollout_is_finite_with_right_shapes(task):
     assert state.info["step"].tolist() == [ROLLOUT_STEPS, ROLLOUT_STEPS]
     assert not np.any(np.asarray(state.info["diverged"]))
     assert np.all(np.linalg.norm(np.asarray(state.obs["robot0_eef_pos"]) - start, axis=-1) > 1e-3)  # the arm moved
+    if task == "lift":  # robosuite redraws the cube's size at every reset; so does the MJX Lift
+        v = np.asarray(state.info["variant"])
+        half_z = np.asarray(env.variants.sizes)[v, 2]
+        bottom = np.asarray(state.data.xpos[:, env._idx["obj_body"], 2]) - half_z
+        assert v[0] != v[1] and half_z[0] != half_z[1]
+        np.testing.assert_allclose(bottom, env.meta["success"]["table_height"], atol=2e-3)  # resting on the table
 
 
 @pytest.mark.slow
@@ -154,3 +161,19 @@ def test_bad_input_is_a_clear_error():
         env.step(state, jnp.zeros(6))
     with pytest.raises(ValueError, match="action: expected a floating-point dtype"):
         env.step(state, jnp.zeros(7, jnp.int32))
+
+
+def test_lift_size_variants_are_mujocos_own_models():
+    """Variant 0 is the exported model; the others are robosuite's size range compiled by MuJoCo (density kept)."""
+    env = make_env("lift")
+    v = env.variants
+    sizes = np.asarray(v.sizes)
+    assert v.count == 16 and np.all(sizes[1:] >= 0.020) and np.all(sizes[1:] <= 0.022)
+    g = mujoco.mj_name2id(env.mj_model, mujoco.mjtObj.mjOBJ_GEOM, "cube_g0")
+    b = env._idx["obj_body"]
+    np.testing.assert_allclose(sizes[0], env.mj_model.geom_size[g])
+    m0, m3 = v.model(0), v.model(3)
+    np.testing.assert_array_equal(np.asarray(m0.geom_size), np.asarray(env.model.geom_size))
+    np.testing.assert_allclose(np.asarray(m3.geom_size)[g], sizes[3], rtol=1e-6)
+    np.testing.assert_allclose(np.asarray(m3.body_mass)[b], 1000.0 * 8 * np.prod(sizes[3]), rtol=1e-5)
+    assert make_env("pick_place_can").variants is None  # fixed-size objects
