@@ -36,7 +36,7 @@ SWEEP  ?= experiments/cpu-small.json
 # Where `make demos` records the scripted expert: robosuite (MuJoCo C) or mjx (vectorised, no robosuite).
 DEMO_SIM ?= robosuite
 
-.PHONY: help venv envs demos expert-success test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench sweep sweep-online eval xsim wheels clean
+.PHONY: help venv envs demos expert-success test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench sweep sweep-online eval xsim ablations wheels clean
 
 help:
 	@echo "make test       - both dependency sets: the full suite on the CPU set, the current-stack suite (CI runs this)"
@@ -56,6 +56,7 @@ help:
 	@echo "make sweep-online - offline vs online fine-tuning, experiments/cpu-small-online.json -> results/cpu-small-online/"
 	@echo "make eval CKPT=... - evaluate one checkpoint on a noise grid, print the table (EVAL_ARGS='--simulator robosuite --out F')"
 	@echo "make xsim CKPT=... - the same checkpoint in MJX and in robosuite side by side, Fisher exact test per cell"
+	@echo "make ablations  - POIR-DRIL planner/normaliser ablations on Lift in robosuite (experiments/ablations/) -> results/ablations.md"
 
 $(STAMP): pyproject.toml $(LOCKS)
 	@test -n "$(PYTHON)" || { echo "error: no Python interpreter for STACK=$(STACK) (cpu: 3.11; current/gpu: 3.12 or newer); set PYTHON=/path/to/python"; exit 2; }
@@ -119,6 +120,10 @@ sweep-online: $(STAMP)
 eval: $(STAMP)
 	@test -n "$(CKPT)" || { echo "usage: make eval CKPT=checkpoints/<task>/<file>.ckpt [EVAL_ARGS='--sigma-init 0.02 0.2 --episodes 10']"; exit 2; }
 	$(PY) -m poir_mjx.cli eval --ckpt "$(CKPT)" $(EVAL_ARGS)
+
+ablations: $(STAMP)
+	for f in experiments/ablations/*.json; do $(PY) -m poir_mjx.cli sweep --config $$f || exit $$?; done
+	$(PY) -m poir_mjx.cli compare results/cpu-ablate-* --out results/ablations.md
 
 xsim: $(STAMP)
 	@test -n "$(CKPT)" || { echo "usage: make xsim CKPT=checkpoints/<task>/<file>.ckpt [EVAL_ARGS='--sigma-init 0.02 0.2 --episodes 20']"; exit 2; }

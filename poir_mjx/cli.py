@@ -87,6 +87,9 @@ def main(argv=None) -> int:
     sp.add_argument("--checkpoints", type=Path, default=Path("checkpoints"))
     sp.add_argument("--replace-config", action="store_true",
                     help="run a changed config in an existing run folder (cells made with other settings are recomputed)")
+    cp = sub.add_parser("compare", help="one table across sweep runs, e.g. ablations (make ablations)")
+    cp.add_argument("runs", type=Path, nargs="+", help="run folders (results/<name>)")
+    cp.add_argument("--out", type=Path, default=None, help="also write the table to this file (markdown)")
     ep = sub.add_parser("eval", help="evaluate a checkpoint on a noise grid (make eval CKPT=...)")
     ep.add_argument("--ckpt", required=True, type=Path)
     ep.add_argument("--method", default=None, help="default: EBC for a policy checkpoint, POIR-DRIL for a POIR one")
@@ -131,6 +134,10 @@ def main(argv=None) -> int:
             return m(rest or ["generate"])
         if rest:
             p.error(f"unrecognised arguments: {' '.join(rest)}")
+        if args.command == "compare":
+            from poir_mjx.eval.compare import main as compare_main
+
+            return compare_main(args.runs, args.out)
         if args.command == "eval":
             if args.episodes <= 0 or args.max_steps <= 0 or args.workers <= 0:
                 raise ConfigError("--episodes, --max-steps and --workers must be positive")

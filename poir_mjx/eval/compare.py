@@ -1,0 +1,71 @@
+"""One table across sweep runs (ablations): ``python -m poir_mjx.cli compare results/cpu-ablate-* --out F``.
+
+Each row is a (run, method): the run's config overrides, then the success rate and Wilson interval
+per (task, sigma_init, sigma_action) cell, read from the run's cell records (the cells must exist:
+run the sweeps first). Runs with the same grid, episodes and seeds share their episode keys, so
+their rows are paired comparisons.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from poir_mjx.atomic import atomic_write_text
+from poir_mjx.core.config import ConfigError
+from poir_mjx.eval.stats import wilson_interval
+
+
+def _cells(run: Path) -> list[dict]:
+    cfg_path = run / "config.json"
+    if not cfg_path.is_file():
+        raise ConfigError(f"{cfg_path}: no such file (not a sweep run folder, or made before run folders recorded their config)")
+    recs = []
+    for f in sorted((run / "cells").rglob("*.json")):
+        rec = json.loads(f.read_text())
+        if not isinstance(rec, dict) or "successes" not in rec:
+            raise ConfigError(f"{f}: not a cell record")
+        recs.append(rec)
+    if not recs:
+        raise ConfigError(f"{run}/cells: no cell records; run the sweep first")
+    return recs
+
+
+def compare(runs: list[Path]) -> str:
+    rows, cols = [], []
+    for run in runs:
+        cfg = json.loads((run / "config.json").read_text()) if (run / "config.json").is_file() else {}
+        by_method: dict[str, dict] = {}
+        for rec in _cells(run):
+            col = (rec["task"], rec["sigma_init"], rec["sigma_action"])
+            if col not in cols:
+                cols.append(col)
+            cell = by_method.setdefault(rec["method"], {}).setdefault(col, [0, 0])
+            cell[0] += rec["successes"]
+            cell[1] += rec["episodes"]
+        overrides = ", ".join(f"{k}={v}" for k, v in sorted(cfg.get("overrides", {}).items())) or "-"
+        for method, cells in by_method.items():
+            rows.append((run.name, overrides, method, cells))
+    cols.sort()
+    head = "| run | overrides | method | " + " | ".join(f"{t} σ_init {si:g}" + (f" σ_act {sa:g}" if sa else "") for t, si, sa in cols) + " |"
+    lines = [head, "|---|---|---|" + "---|" * len(cols)]
+    for name, overrides, method, cells in rows:
+        out = []
+        for col in cols:
+            if col not in cells:
+                out.append("-")
+                continue
+            k, n = cells[col]
+            lo, hi = wilson_interval(k, n)
+            out.append(f"{k}/{n} = {k / n:.2f} [{lo:.2f}, {hi:.2f}]")
+        lines.append(f"| {name} | {overrides} | {method} | " + " | ".join(out) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def main(runs: list[Path], out: Path | None) -> int:
+    text = compare(runs)
+    print(text, end="")
+    if out is not None:
+        atomic_write_text(out, text)
+        print(f"wrote {out}")
+    return 0
