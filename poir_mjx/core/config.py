@@ -194,7 +194,7 @@ def apply_overrides(cfg: POIRConfig, overrides: dict, source: str = "overrides")
     return from_dict(d, POIRConfig, source)
 
 
-def offline_key(cfg: POIRConfig) -> POIRConfig:
+def offline_config(cfg: POIRConfig) -> POIRConfig:
     """`cfg` with the online settings at their defaults: what identifies offline weights and offline cells."""
     return dataclasses.replace(cfg, online=OnlineConfig())
 

@@ -25,7 +25,7 @@ from poir_mjx.atomic import atomic_write_text
 from poir_mjx.data import expert as ex
 from poir_mjx.data import mjx_demos
 from poir_mjx.data.robomimic import ENV_NAMES, write_robomimic
-from poir_mjx.data.rollout import EXPERT_STEPS, robosuite_episode
+from poir_mjx.data.expert_episodes import EXPERT_STEPS, robosuite_episode
 from poir_mjx.envs.env import make_env, make_params
 from poir_mjx.envs.tasks import TASKS, make_robosuite, robosuite_kwargs
 from poir_mjx.optional import require_robosuite

@@ -20,7 +20,7 @@ import numpy as np
 
 from poir_mjx.data import expert as ex
 from poir_mjx.data.robomimic import ENV_NAMES, LOW_DIM_KEYS, Demo, write_robomimic
-from poir_mjx.data.rollout import EXPERT_STEPS
+from poir_mjx.data.expert_episodes import EXPERT_STEPS
 from poir_mjx.envs.env import float_dtype, make_env, make_params
 from poir_mjx.envs.tasks import CONTROL_FREQ, HORIZON, task_files
 from poir_mjx.eval.rollout import run_sharded

@@ -14,7 +14,7 @@ import dataclasses
 from typing import Callable
 
 from poir_mjx.core.agent import POIR
-from poir_mjx.core.config import POIRConfig, offline_key
+from poir_mjx.core.config import POIRConfig, offline_config
 
 
 class UnknownMethodError(ValueError):
@@ -34,7 +34,7 @@ class Method:
     def agent_config(self, base: POIRConfig) -> POIRConfig:
         """The config this method's agent is trained and run with (online settings only for online methods)."""
         if not self.online:
-            base = offline_key(base)
+            base = offline_config(base)
         if self.agent_kind == "policy":
             return dataclasses.replace(base, normalize=False)
         planner = dataclasses.replace(base.planner, reward=self.reward, use_prior=self.use_prior)
@@ -42,7 +42,7 @@ class Method:
 
     def training_config(self, base: POIRConfig) -> POIRConfig:
         """What determines the offline weights (planner and online settings do not): the checkpoint key."""
-        cfg = offline_key(self.agent_config(base))
+        cfg = offline_config(self.agent_config(base))
         return dataclasses.replace(cfg, planner=dataclasses.replace(base.planner, reward="dril", use_prior=True))
 
     def policy_fn(self, agent: POIR) -> Callable:

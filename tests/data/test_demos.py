@@ -8,7 +8,7 @@ import pytest
 
 from poir_mjx.data.demos import generate
 from poir_mjx.data.robomimic import read_transitions
-from poir_mjx.data.rollout import robosuite_episode
+from poir_mjx.data.expert_episodes import robosuite_episode
 
 
 @pytest.mark.needs_robosuite
