@@ -66,7 +66,8 @@ def test_agent_fit_shares_the_floored_normaliser_and_clips():
     obs = _lift_like_data(n=256)
     act = np.zeros((256, 7), np.float32)  # constant expert actions: the action floor keeps the bounds finite
     cfg = POIRConfig(ensemble_size=2, bc=MLPConfig(layers=2, width=8), world_model=MLPConfig(layers=2, width=8),
-                     train=TrainConfig(epochs=1, batch_size=64))  # fmt: skip
+                     train=TrainConfig(epochs=1, batch_size=64),
+                     normalizer=NormalizerConfig(action_std_floor=0.05))  # fmt: skip
     agent = POIR(cfg, 19, 7)
     params, _ = agent.fit(jax.random.PRNGKey(0), obs, act, obs, obs_groups=obs_groups("lift"))
     np.testing.assert_allclose(np.asarray(params.obs_norm.std)[12:14], 0.05)
