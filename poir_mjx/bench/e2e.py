@@ -30,8 +30,8 @@ def bench(preset: str, method_name: str, episodes: int, steps: int, num_demos: i
     cfg = SweepConfig(name="bench", preset=preset, methods=(method_name,), episodes=episodes,
                          max_steps=steps, num_demos=num_demos)  # fmt: skip
     method = get_method(method_name)
-    demo_path, prov = demos_for(cfg, "lift", Path("data/demos"))
-    agent, params, _ = train_or_load(method, cfg, "lift", 0, demo_path, prov, Path("checkpoints"))
+    tr, prov = demos_for(cfg, "lift", Path("data/demos"))
+    agent, params, _ = train_or_load(method, cfg, "lift", 0, tr, prov, Path("checkpoints"))
     evaluator = mjx_evaluator("lift", method, agent, steps)
     env_params = make_params(np.full(episodes, 0.2), 0.0)
     t0 = time.perf_counter()

@@ -9,14 +9,10 @@ import jax
 import numpy as np
 
 from poir_mjx.data import expert as ex
-from poir_mjx.data.robomimic import LOW_DIM_KEYS, Demo
+from poir_mjx.data.robomimic import LOW_DIM_KEYS, Demo, robosuite_obs
 from poir_mjx.envs.tasks import HORIZON, make_robosuite
 
 EXPERT_STEPS = {"lift": 120, "pick_place_can": 300, "nut_assembly_square": 300}
-
-
-def _obs(o) -> dict:
-    return {k: np.asarray(o[k] if k != "object" else o["object-state"], np.float32) for k in LOW_DIM_KEYS}
 
 
 @functools.lru_cache(maxsize=None)
@@ -34,13 +30,13 @@ def robosuite_episode(task: str, seed: int, sigma_init: float = 0.02, max_steps:
     obs_l, nxt_l, acts, states, rewards, dones = [], [], [], [], [], []
     t0, success, after = time.perf_counter(), False, 0
     for t in range(max_steps or min(EXPERT_STEPS[task], HORIZON)):
-        o = _obs(raw)
+        o = robosuite_obs(raw)
         a, st = act(o, st)
         a = np.asarray(a, np.float64)
         states.append(np.asarray(env.sim.get_state().flatten()))
         raw, r, _, _ = env.step(a)
         success = success or bool(env._check_success())
-        obs_l.append(o), nxt_l.append(_obs(raw)), acts.append(a), rewards.append(float(env._check_success()))
+        obs_l.append(o), nxt_l.append(robosuite_obs(raw)), acts.append(a), rewards.append(float(env._check_success()))
         dones.append(0)
         after += int(success)
         if after >= 5:

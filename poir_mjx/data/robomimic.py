@@ -32,6 +32,11 @@ ACTION_SIZE = 7
 ENV_NAMES = {"lift": "Lift", "pick_place_can": "PickPlaceCan", "nut_assembly_square": "NutAssemblySquare"}
 
 
+def robosuite_obs(o: dict) -> dict[str, np.ndarray]:
+    """robomimic's low-dim keys (float32) from a robosuite observation dict ("object" is its "object-state")."""
+    return {k: np.asarray(o["object-state" if k == "object" else k], np.float32) for k in LOW_DIM_KEYS}
+
+
 class DatasetError(ValueError):
     """Invalid robomimic file; the message names the file, the demo and the field."""
 

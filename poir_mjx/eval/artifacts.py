@@ -13,41 +13,44 @@ import numpy as np
 from poir_mjx.core import checkpoint
 from poir_mjx.core.agent import POIR
 from poir_mjx.core.config import ConfigError
-from poir_mjx.data.robomimic import LOW_DIM_KEYS, DatasetError, read_transitions
+from poir_mjx.data.robomimic import LOW_DIM_KEYS, DatasetError, Transitions, read_transitions
 from poir_mjx.envs.layout import obs_groups
 from poir_mjx.eval.methods import Method, get_method
 from poir_mjx.eval.sweep_config import SweepConfig, base_config, config_dict, short_hash
 
 
-def demos_for(cfg: SweepConfig, task: str, data_dir: Path, progress: bool = True) -> tuple[Path, dict]:
-    """The demo file for `task` (made on first use) and its provenance, with a digest of its content
-    ("sha256": the transitions the agents train on), which keys the checkpoints and the cells."""
+def demos_for(cfg: SweepConfig, task: str, data_dir: Path, progress: bool = True) -> tuple[Transitions, dict]:
+    """The expert transitions for `task` (the file made on first use; read once, ``tr.path`` names it)
+    and their provenance, with a digest of their content ("sha256"), which keys checkpoints and cells."""
     if task in cfg.demo_files:
-        path = Path(cfg.demo_files[task])
-        return path, {"source": "file", "path": str(path), "sha256": content_digest(path, task)}
+        tr = read_transitions(cfg.demo_files[task], task=task)
+        return tr, {"source": "file", "path": tr.path, "sha256": transitions_digest(tr)}
     from poir_mjx.data.demos import generate
 
     path = generate(task, cfg.num_demos, seed=0, sigma_init=0.02, out=data_dir, simulator=cfg.demo_simulator,
                     batch=cfg.demo_batch, progress=progress)  # fmt: skip
-    tr = read_transitions(path, task=task, max_demos=1)
+    tr = read_transitions(path, task=task)
     generator = tr.provenance.get("poir_mjx_generator", {})
     if not isinstance(generator, dict):
         raise DatasetError(f"{path}: field data.attrs['poir_mjx_generator'] is not a JSON object")
-    return path, {"source": "scripted expert", **generator,
-                  "sha256": content_digest(path, task)}  # fmt: skip
+    return tr, {"source": "scripted expert", **generator, "sha256": transitions_digest(tr)}
 
 
-def content_digest(path: Path, task: str) -> str:
+def transitions_digest(tr: Transitions) -> str:
     """sha256 of the demos' names and (obs, actions, next_obs) as read for training: a replaced or
     corrupted file at the same path gives another digest, a byte-different copy of the same data not."""
-    tr = read_transitions(path, task=task)
     h = hashlib.sha256(json.dumps([tr.demo_names, list(tr.obs_keys)]).encode())
     for a in (tr.obs, tr.actions, tr.next_obs):
         h.update(np.ascontiguousarray(a, np.float32).tobytes())
     return h.hexdigest()[:16]
 
 
-def train_or_load(method: Method, cfg: SweepConfig, task: str, seed: int, demo_path: Path, provenance: dict,
+def content_digest(path: Path, task: str) -> str:
+    """``transitions_digest`` of a robomimic file."""
+    return transitions_digest(read_transitions(path, task=task))
+
+
+def train_or_load(method: Method, cfg: SweepConfig, task: str, seed: int, tr: Transitions, provenance: dict,
                   ckpt_dir: Path, progress: bool = True):  # fmt: skip
     """The trained agent for (method's kind, task, seed), from its checkpoint if one matches."""
     from tqdm import tqdm
@@ -59,10 +62,9 @@ def train_or_load(method: Method, cfg: SweepConfig, task: str, seed: int, demo_p
     if path.exists():
         agent, params, _ = checkpoint.load(path, tcfg, layout)
     else:
-        tr = read_transitions(demo_path, task=task)
         groups = obs_groups(task)
         if tr.obs.shape[1] != len(groups):
-            raise DatasetError(f"{demo_path}: observations {list(LOW_DIM_KEYS)} are {tr.obs.shape[1]} wide, "
+            raise DatasetError(f"{tr.path}: observations {list(LOW_DIM_KEYS)} are {tr.obs.shape[1]} wide, "
                                f"task {task} has {len(groups)}")  # fmt: skip
         agent = POIR(tcfg, tr.obs.shape[1], tr.actions.shape[1])
         bar = tqdm(total=tcfg.train.epochs * (2 if method.agent_kind == "poir" else 1),

@@ -16,7 +16,8 @@ from poir_mjx.core.config import ConfigError
 from poir_mjx.eval.stats import wilson_interval
 
 
-def _cells(run: Path) -> list[dict]:
+def _read_run(run: Path) -> tuple[dict, list[dict]]:
+    """(recorded sweep config, cell records) of a run folder."""
     cfg_path = run / "config.json"
     if not cfg_path.is_file():
         raise ConfigError(f"{cfg_path}: no such file (not a sweep run folder, or made before run folders recorded their config)")
@@ -28,15 +29,15 @@ def _cells(run: Path) -> list[dict]:
         recs.append(rec)
     if not recs:
         raise ConfigError(f"{run}/cells: no cell records; run the sweep first")
-    return recs
+    return json.loads(cfg_path.read_text()), recs
 
 
 def compare(runs: list[Path]) -> str:
     rows, cols = [], []
     for run in runs:
-        cfg = json.loads((run / "config.json").read_text()) if (run / "config.json").is_file() else {}
+        cfg, recs = _read_run(run)
         by_method: dict[str, dict] = {}
-        for rec in _cells(run):
+        for rec in recs:
             col = (rec["task"], rec["sigma_init"], rec["sigma_action"])
             if col not in cols:
                 cols.append(col)

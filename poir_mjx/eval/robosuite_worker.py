@@ -11,11 +11,11 @@ import sys
 
 import numpy as np
 
-from poir_mjx.data.robomimic import LOW_DIM_KEYS
+from poir_mjx.data.robomimic import robosuite_obs
 
 
 def _flat_obs(o) -> np.ndarray:
-    return np.concatenate([np.asarray(o["object-state" if k == "object" else k], np.float32) for k in LOW_DIM_KEYS])
+    return np.concatenate(list(robosuite_obs(o).values()))
 
 
 def serve(recv, send, task: str, n_envs: int) -> None:

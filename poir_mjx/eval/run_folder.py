@@ -37,13 +37,16 @@ def prepare(out: Path, config: dict, replace_config: bool = False) -> None:
         raise ConfigError(f"{out}: results folder is not writable ({e.strerror})") from None
     recorded = out / "config.json"
     text = json.dumps(config, indent=2, sort_keys=True) + "\n"
-    if recorded.is_file() and not replace_config:
+    new = json.loads(text)  # as it reads back (tuples become lists)
+    if recorded.is_file():
         try:
             old = json.loads(recorded.read_text())
         except (OSError, json.JSONDecodeError) as e:
             raise ConfigError(f"{recorded}: unreadable ({e})") from None
-        if old != json.loads(text):
-            diff = sorted(k for k in set(old) | set(config) if old.get(k) != config.get(k))
+        if old == new:
+            return
+        if not replace_config:
+            diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
             raise ConfigError(f"{recorded}: this run folder was made with a different config (fields {diff}); "
                               "use another name, or --replace-config to recompute the changed cells here")  # fmt: skip
     atomic_write_text(recorded, text)

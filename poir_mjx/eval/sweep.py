@@ -32,7 +32,6 @@ import numpy as np
 from poir_mjx.atomic import atomic_write_text
 from poir_mjx.core.agent import POIR
 from poir_mjx.core.config import to_dict
-from poir_mjx.data.robomimic import read_transitions
 from poir_mjx.envs.env import make_env, make_params
 from poir_mjx.eval import run_folder
 from poir_mjx.eval.artifacts import cell_hash, cell_path, demos_for, read_cell, train_or_load
@@ -59,7 +58,7 @@ def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: 
     total_eps = len(cells) * len(grid) * cfg.episodes
     bar = tqdm(total=total_eps, desc=f"sweep {cfg.name}", unit="ep", disable=not progress)
     t_start, done_now = time.perf_counter(), 0
-    demos = {task: demos_for(cfg, task, data_dir, progress) for task in cfg.tasks}  # (path, provenance)
+    demos = {task: demos_for(cfg, task, data_dir, progress) for task in cfg.tasks}  # (transitions, provenance)
     digests = {task: prov["sha256"] for task, (_, prov) in demos.items()}
     for task, mname, seed in cells:
         method = get_method(mname)
@@ -68,8 +67,8 @@ def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: 
         if all(read_cell(p, chash) for p in paths):
             bar.update(len(grid) * cfg.episodes)
             continue
-        demo_path, prov = demos[task]
-        agent, params, ckpt = train_or_load(method, cfg, task, seed, demo_path, prov, ckpt_dir, progress)
+        tr, prov = demos[task]
+        agent, params, ckpt = train_or_load(method, cfg, task, seed, tr, prov, ckpt_dir, progress)
         si = np.repeat([g[0] for g in grid], cfg.episodes)
         sa = np.repeat([g[1] for g in grid], cfg.episodes)
         keys = episode_keys(seed, len(si))  # one key per episode
@@ -80,7 +79,6 @@ def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: 
         if method.online:
             # Each noise cell is its own deployment environment: fine-tune there, evaluate on the
             # cell's own episode keys (the offline cell's keys: a paired comparison).
-            tr = read_transitions(demo_path, task=task)  # the expert half of every batch, read once
             offline = (tr.obs, tr.actions, tr.next_obs)
             for j, ((s_i, s_a), path) in enumerate(zip(grid, paths)):
                 if read_cell(path, chash):
