@@ -22,7 +22,7 @@ def _eval(args) -> int:
     from poir_mjx.eval.methods import UnknownMethodError, get_method
     from poir_mjx.atomic import atomic_write_text
     from poir_mjx.eval.episodes import SIMULATORS, agreement_p_value, run_episodes
-    from poir_mjx.eval.rollout import episode_keys
+    from poir_mjx.eval.evaluator import episode_keys
     from poir_mjx.eval.stats import wilson_interval
     from poir_mjx.versions import simulator_line
 

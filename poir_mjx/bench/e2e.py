@@ -22,7 +22,7 @@ from poir_mjx.envs.env import make_params
 from poir_mjx.eval.artifacts import demos_for, train_or_load
 from poir_mjx.eval.episodes import mjx_evaluator
 from poir_mjx.eval.methods import get_method
-from poir_mjx.eval.rollout import run_batch
+from poir_mjx.rollout.sharding import run_batch
 from poir_mjx.eval.sweep_config import SweepConfig
 
 

@@ -29,6 +29,7 @@ from poir_mjx.data.expert_episodes import EXPERT_STEPS, robosuite_episode
 from poir_mjx.envs.env import make_env, make_params
 from poir_mjx.envs.tasks import TASKS, make_robosuite, robosuite_kwargs
 from poir_mjx.optional import require_robosuite
+from poir_mjx.rollout.episode import batched_episodes
 
 DEFAULT_DIR = Path("data/demos")
 SIMULATORS = ("robosuite", "mjx")
@@ -129,28 +130,12 @@ def generate(task: str, num: int, seed: int, sigma_init: float, out: Path, progr
 
 def mjx_success(task: str, episodes: int, seed: int, sigma_init: float, steps: int | None = None) -> dict:
     """The expert in MJX: one compiled rollout (lax.scan over steps, vmap over episodes)."""
-    env = make_env(task)
-    et = ex.expert_task(task)
     steps = steps or EXPERT_STEPS[task]
     params = make_params(np.full(episodes, sigma_init), 0.0)
-
-    def episode(key, p):
-        k_env, k_ex = jax.random.split(key)
-        state = env.reset(k_env, p)
-        es = ex.init(et, k_ex)
-
-        def body(carry, _):
-            s, e = carry
-            a, e = ex.act(et, s.obs, e)
-            return (env.step(s, a), e), None
-
-        (state, _), _ = jax.lax.scan(body, (state, es), None, length=steps)
-        return state.info["first_success"], state.info["diverged"]
-
     keys = jax.random.split(jax.random.PRNGKey(seed), episodes)
     t0 = time.perf_counter()
-    first, diverged = jax.jit(jax.vmap(episode))(keys, params)
-    first, diverged = np.asarray(first), np.asarray(diverged)
+    res, _ = batched_episodes(make_env(task), mjx_demos.expert_policy(task), steps)(None, keys, params)
+    first, diverged = np.asarray(res["first_success"]), np.asarray(res["diverged"])
     ok = first >= 0
     return {
         "simulator": "MJX",

@@ -23,7 +23,8 @@ from poir_mjx.data.robomimic import ENV_NAMES, LOW_DIM_KEYS, Demo, write_robomim
 from poir_mjx.data.expert_episodes import EXPERT_STEPS
 from poir_mjx.envs.env import float_dtype, make_env, make_params
 from poir_mjx.envs.tasks import CONTROL_FREQ, HORIZON, task_files
-from poir_mjx.eval.rollout import run_sharded
+from poir_mjx.rollout.episode import Policy, batched_episodes
+from poir_mjx.rollout.sharding import run_sharded
 from poir_mjx.versions import mjx_version
 
 # robosuite's demo ends this many steps after the first success (rollout.robosuite_episode).
@@ -55,29 +56,22 @@ def env_args(task: str, sigma_init: float) -> dict:
             "env_kwargs": kwargs}  # fmt: skip
 
 
+def expert_policy(task: str) -> Policy:
+    """The scripted expert as a rollout policy: its state machine is the carry, seeded by the run key."""
+    et = ex.expert_task(task)
+    return Policy(act=lambda _, e, state, k: ex.act(et, state.obs, e), init=lambda _, k: ex.init(et, k))
+
+
 @functools.lru_cache(maxsize=None)
 def expert_rollout(task: str, steps: int):
-    """jit(vmap(episode)): (unused params, keys [B], EnvParams [B]) -> per-step records [B, T, ...]."""
-    env = make_env(task)
-    et = ex.expert_task(task)
+    """jit(vmap(episode)): (unused params, keys [B], EnvParams [B]) -> (outcomes [B], per-step records [B, T, ...])."""
 
-    def episode(_, key, p):
-        k_env, k_ex = jax.random.split(key)
-        state = env.reset(k_env, p)
+    def record(s, a, s2):
+        d = s.data
+        return {"obs": s.obs, "next_obs": s2.obs, "action": a, "success": s2.success,
+                "state": jnp.concatenate([d.time[None], d.qpos, d.qvel])}  # fmt: skip
 
-        def body(carry, _):
-            s, e = carry
-            a, e = ex.act(et, s.obs, e)
-            s2 = env.step(s, a)
-            d = s.data
-            rec = {"obs": s.obs, "next_obs": s2.obs, "action": a, "success": s2.success,
-                   "state": jnp.concatenate([d.time[None], d.qpos, d.qvel])}  # fmt: skip
-            return (s2, e), rec
-
-        (state, _), traj = jax.lax.scan(body, (state, ex.init(et, k_ex)), None, length=steps)
-        return {**traj, "first_success": state.info["first_success"], "diverged": state.info["diverged"]}
-
-    return jax.jit(jax.vmap(episode, in_axes=(None, 0, 0)))
+    return batched_episodes(make_env(task), expert_policy(task), steps, record)
 
 
 def episode_keys(seed: int, start: int, n: int) -> jax.Array:
@@ -108,11 +102,10 @@ def generate_mjx(task: str, num: int, seed: int, sigma_init: float, path: Path, 
     demos, lengths, tried, t0 = [], [], 0, time.perf_counter()
     bar = tqdm(total=num, desc=f"demos {task} (MJX, batch {batch})", unit="demo", disable=not progress)
     while len(demos) < num:
-        traj = run_sharded(rollout, None, episode_keys(seed, tried, batch), params)
-        traj = jax.tree_util.tree_map(np.asarray, traj)
+        res, traj = jax.tree_util.tree_map(np.asarray, run_sharded(rollout, None, episode_keys(seed, tried, batch), params))
         for j in range(batch):
-            first = int(traj["first_success"][j])
-            if first > 0 and not traj["diverged"][j] and len(demos) < num:
+            first = int(res["first_success"][j])
+            if first > 0 and not res["diverged"][j] and len(demos) < num:
                 demos.append(cut_demo(traj, j, first, steps))
                 lengths.append(demos[-1].actions.shape[0])
                 bar.update(1)

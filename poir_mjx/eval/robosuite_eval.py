@@ -3,7 +3,7 @@
 Episodes are spread over worker processes, each stepping its share of robosuite environments
 (MuJoCo C, robosuite's OSC_POSE controller); at every control step the main process gathers all
 observations and calls the compiled, batched policy once (``jit(vmap(policy_fn))``), so the agent
-code and its per-episode, per-step keys are those of the MJX evaluator (``eval/rollout.py``).
+code and its per-episode, per-step keys are those of the MJX evaluator (``rollout/episode.py``).
 Per episode: robosuite's reset noise on the arm's joints is ``sigma_init`` (Gaussian), Gaussian
 noise of std ``sigma_action`` is added to every action, and robosuite draws the rest of the reset
 (object pose, Lift's cube size) from a generator seeded by the episode's key. An episode whose
@@ -97,7 +97,7 @@ def episode_streams(keys: jax.Array, steps: int):
 
 def evaluate(task: str, policy_fn, params, keys: jax.Array, sigma_init, sigma_action, steps: int,
              workers: int = 2, envs_per_worker: int = 16, progress: bool = True) -> dict[str, np.ndarray]:  # fmt: skip
-    """Run len(keys) episodes of `steps` control steps in robosuite; the results of ``eval.rollout.run_batch``.
+    """Run len(keys) episodes of `steps` control steps in robosuite; the results of ``rollout.sharding.run_batch``.
 
     keys: one PRNG key per episode (raw uint32 [B, 2]); sigma_init / sigma_action: [B].
     first_success counts control steps from 1, as the MJX environment does (-1: never). Episodes

@@ -38,7 +38,7 @@ from poir_mjx.eval.artifacts import cell_hash, cell_path, demos_for, read_cell, 
 from poir_mjx.eval.episodes import run_episodes
 from poir_mjx.eval.methods import get_method
 from poir_mjx.eval.report import write_tables
-from poir_mjx.eval.rollout import episode_keys
+from poir_mjx.eval.evaluator import episode_keys
 from poir_mjx.eval.run_folder import check_run_name
 from poir_mjx.eval.stats import wilson_interval
 from poir_mjx.eval.sweep_config import SweepConfig, load_sweep_config

@@ -29,7 +29,8 @@ from flax import struct
 from poir_mjx.core import ensemble as ens
 from poir_mjx.core.agent import POIR, POIRParams
 from poir_mjx.envs.env import EnvParams
-from poir_mjx.eval.rollout import replicate, run_sharded
+from poir_mjx.rollout.episode import batched_episodes, stateless
+from poir_mjx.rollout.sharding import replicate, run_sharded
 from poir_mjx.online import buffer as rb
 from poir_mjx.online import checkpoint as ock
 from poir_mjx.online.finetune import deployment_error, finetune, world_model_targets
@@ -52,24 +53,13 @@ class OnlineResult:
 
 
 def make_collector(env, policy_fn, steps: int):
-    """jit(vmap(episode)) returning the transitions (obs, action, next_obs, valid) [B, T, .] and outcomes."""
+    """jit(vmap(episode)) -> (outcomes [B], transitions (obs, action, next_obs, valid) [B, T, .])."""
 
-    def episode(params, key, env_params: EnvParams):
-        k_reset, k_run = jax.random.split(key)
-        state = env.reset(k_reset, env_params)
+    def record(state, action, nxt):
+        valid = ~state.done & ~nxt.info["diverged"]
+        return env.obs_vector(state), action, env.obs_vector(nxt), valid
 
-        def body(state, k):
-            obs = env.obs_vector(state)
-            action = policy_fn(params, obs, k)
-            nxt = env.step(state, action)
-            valid = ~state.done & ~nxt.info["diverged"]
-            return nxt, (obs, action, env.obs_vector(nxt), valid)
-
-        state, (o, a, o2, v) = jax.lax.scan(body, state, jax.random.split(k_run, steps))
-        outcome = {"first_success": state.info["first_success"], "diverged": state.info["diverged"]}
-        return (o, a, o2, v), outcome
-
-    return jax.jit(jax.vmap(episode, in_axes=(None, 0, 0)))
+    return batched_episodes(env, stateless(env, policy_fn), steps, record)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -164,7 +154,7 @@ class OnlineTrainer:
         def evaluate(st: RunState) -> dict:
             t0 = time.perf_counter()
             # the collector again (its transitions unused): one compilation when num_envs == n_eval
-            _, res = run_sharded(self.collector, params.replace(wm=st.wm.params), eval_keys, eval_params)
+            res, _ = run_sharded(self.collector, params.replace(wm=st.wm.params), eval_keys, eval_params)
             res = jax.tree_util.tree_map(np.asarray, res)
             k = int((res["first_success"] >= 0).sum())
             return {**self.counters(st.round), "successes": k,
@@ -183,7 +173,7 @@ class OnlineTrainer:
             t0 = time.perf_counter()
             key, k_collect, k_train = jax.random.split(state.key, 3)
             cur = params.replace(wm=state.wm.params)
-            (o, a, o2, v), outcome = run_sharded(self.collector, cur, jax.random.split(k_collect, n), deploy)
+            outcome, (o, a, o2, v) = run_sharded(self.collector, cur, jax.random.split(k_collect, n), deploy)
             flat = [x.reshape((-1,) + x.shape[2:]) for x in (o, a, o2, v)]
             err_now = deployment_error(agent.wm_module, state.wm.params, params.obs_norm, params.act_norm, *flat, clip)
             err_off = deployment_error(agent.wm_module, params.reward_wm, params.obs_norm, params.act_norm, *flat, clip)

@@ -10,7 +10,7 @@ from poir_mjx.core.agent import POIR
 from poir_mjx.core.checkpoint import CheckpointError
 from poir_mjx.core.config import OnlineConfig
 from poir_mjx.envs.env import make_params
-from poir_mjx.eval.rollout import run_sharded
+from poir_mjx.rollout.sharding import run_sharded
 from poir_mjx.online.finetune import deployment_error
 from poir_mjx.online.loop import OnlineTrainer
 from tests.core.test_planner import SMALL
@@ -40,7 +40,7 @@ def setup():
 def test_world_model_error_on_deployment_data_drops(setup):
     trainer, params, _, _, result = setup
     # fresh deployment transitions (keys never used in the run), collected by the fine-tuned agent
-    (o, a, o2, v), _ = run_sharded(trainer.collector, result.params, jax.random.split(jax.random.PRNGKey(99), 16),
+    _, (o, a, o2, v) = run_sharded(trainer.collector, result.params, jax.random.split(jax.random.PRNGKey(99), 16),
                                    jax.tree_util.tree_map(lambda x: np.full(16, x), DEPLOY))  # fmt: skip
     flat = [x.reshape((-1,) + x.shape[2:]) for x in (o, a, o2, v)]
     module = trainer.agent.wm_module

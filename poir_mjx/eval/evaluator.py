@@ -1,0 +1,24 @@
+"""One compiled evaluation per (task, method): ``rollout.episode`` vmapped over episodes, sharded over devices.
+
+The per-episode perturbations (sigma_init, sigma_action) and keys are inputs, so a whole noise
+grid is one batch.
+"""
+
+from __future__ import annotations
+
+import jax
+
+from poir_mjx.rollout.episode import batched_episodes, stateless
+from poir_mjx.rollout.protocol import Env
+
+
+def make_evaluator(env: Env, policy_fn, steps: int):
+    """jit(vmap(episode)): (agent params, keys [B], EnvParams [B]) -> per-episode outcomes
+    (first_success, diverged, steps). `policy_fn(params, obs_vector, key) -> action`."""
+    episodes = batched_episodes(env, stateless(env, policy_fn), steps)
+    return jax.jit(lambda params, keys, env_params: episodes(params, keys, env_params)[0])
+
+
+def episode_keys(seed: int, n: int) -> jax.Array:
+    """One key per episode of a cell batch, the same in `sweep` and `eval` (so `eval` reproduces a sweep cell)."""
+    return jax.random.split(jax.random.fold_in(jax.random.PRNGKey(seed), 1), n)

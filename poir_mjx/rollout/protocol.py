@@ -1,0 +1,28 @@
+"""The environment contract every rollout relies on, written down once.
+
+``poir_mjx.envs.env.TaskEnv`` (MJX tasks) and the tests' point-mass toy implement it. A ``State`` is a
+pytree (``poir_mjx.envs.env.State``) whose ``info`` dict carries at least ``INFO_KEYS``.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Protocol, runtime_checkable
+
+import jax
+
+# Per-episode bookkeeping the rollouts read from ``state.info``:
+#   step           int32, control steps taken
+#   first_success  int32, the 1-based step of the first success, -1 if none yet
+#   diverged       bool, the physics produced a non-finite state (the episode is frozen from then on)
+INFO_KEYS = ("step", "first_success", "diverged")
+
+
+@runtime_checkable
+class Env(Protocol):
+    """reset(rng, params) -> State; step(state, action) -> State; obs_vector(state) -> [obs_size]."""
+
+    def reset(self, rng: jax.Array, params: Any) -> Any: ...
+
+    def step(self, state: Any, action: jax.Array) -> Any: ...
+
+    def obs_vector(self, state: Any) -> jax.Array: ...
