@@ -1,4 +1,5 @@
-# poir-mjx: every target creates the virtual environment it needs.
+# poir-mjx: every target creates the virtual environment it needs; every Python command goes through the one
+# command line, python -m poir_mjx.cli <subcommand> (--help lists its flags).
 #
 # Two locked dependency sets (README "Dependencies"); STACK picks one for any target:
 #   STACK=cpu      .venv          Python 3.11, jax 0.7.0, mujoco 3.3.7, robosuite (default: fastest MJX on a CPU)
@@ -33,6 +34,8 @@ export JAX_COMPILATION_CACHE_DIR ?= $(CURDIR)/.cache/jax-$(STACK)
 export PYTHONHASHSEED := 0
 # The sweep config `make sweep` runs; e.g. make sweep SWEEP=experiments/cpu-small-online.json
 SWEEP  ?= experiments/cpu-small.json
+# Extra flags for make sweep / sweep-online, e.g. SWEEP_ARGS='--planner.sigma 0.1 --replace-config' (any POIR field).
+SWEEP_ARGS ?=
 # Where `make demos` records the scripted expert: robosuite (MuJoCo C) or mjx (vectorised, no robosuite).
 DEMO_SIM ?= robosuite
 
@@ -84,7 +87,7 @@ test:
 
 test-cpu:
 	$(MAKE) STACK=cpu venv
-	.venv/bin/python -m poir_mjx.envs.export --out envs --check
+	.venv/bin/python -m poir_mjx.cli envs --out envs --check
 	JAX_COMPILATION_CACHE_DIR=$(CURDIR)/.cache/jax-cpu .venv/bin/python -m pytest -q --durations=15 tests
 
 # The current set has no robosuite: the reference tests skip themselves with the reason. Every task's MJX
@@ -101,21 +104,21 @@ test-fast: $(STAMP)
 BENCH_ENV_ARGS ?= --contact-rich-batch-sizes 1 16
 
 bench-env: $(STAMP)
-	$(PY) -m poir_mjx.bench.env --out results/bench --name env-$(STACK) $(BENCH_ENV_ARGS)
+	$(PY) -m poir_mjx.cli bench env --out results/bench --name env-$(STACK) $(BENCH_ENV_ARGS)
 
 bench-planner: $(STAMP)
-	$(PY) -m poir_mjx.bench.planner --out results/bench
+	$(PY) -m poir_mjx.cli bench planner --out results/bench
 
 bench-e2e: $(STAMP)
-	$(PY) -m poir_mjx.bench.e2e --out results/bench
+	$(PY) -m poir_mjx.cli bench e2e --out results/bench
 
 bench: bench-env bench-planner bench-e2e
 
 sweep: $(STAMP)
-	$(PY) -m poir_mjx.cli sweep --config $(SWEEP)
+	$(PY) -m poir_mjx.cli sweep --config $(SWEEP) $(SWEEP_ARGS)
 
 sweep-online: $(STAMP)
-	$(PY) -m poir_mjx.cli sweep --config experiments/cpu-small-online.json
+	$(PY) -m poir_mjx.cli sweep --config experiments/cpu-small-online.json $(SWEEP_ARGS)
 
 eval: $(STAMP)
 	@test -n "$(CKPT)" || { echo "usage: make eval CKPT=checkpoints/<task>/<file>.ckpt [EVAL_ARGS='--sigma-init 0.02 0.2 --episodes 10']"; exit 2; }

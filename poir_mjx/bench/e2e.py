@@ -1,4 +1,5 @@
-"""End-to-end evaluation throughput: evaluated episodes per minute, per method and preset.
+"""``make bench-e2e`` (``python -m poir_mjx.cli bench e2e``): end-to-end evaluation throughput, evaluated
+episodes per minute, per method and preset.
 
 Uses the sweep's own pieces (demos made on first use, trained checkpoints reused, the compiled
 evaluator) on Lift; times one batch after a warm-up call that includes compilation.
@@ -7,9 +8,7 @@ Writes ``<out>/e2e.{json,md}``.
 
 from __future__ import annotations
 
-import argparse
 import json
-import sys
 import time
 from pathlib import Path
 
@@ -18,6 +17,8 @@ import numpy as np
 
 from poir_mjx.atomic import atomic_write_text
 from poir_mjx.bench.env import device_name
+from poir_mjx.cli import command_line
+from poir_mjx.cli.options import BenchE2E
 from poir_mjx.envs.env import make_params
 from poir_mjx.eval.artifacts import demos_for, train_or_load
 from poir_mjx.eval.episodes import mjx_evaluator
@@ -45,18 +46,12 @@ def bench(preset: str, method_name: str, episodes: int, steps: int, num_demos: i
             "episode_steps_per_s": episodes * steps / dt, "successes": int((res["first_success"] >= 0).sum())}  # fmt: skip
 
 
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--out", default="results/bench")
-    p.add_argument("--presets", nargs="+", default=["cpu-small"])
-    p.add_argument("--methods", nargs="+", default=["EBC", "POIR-DRIL"])
-    p.add_argument("--episodes", type=int, default=16)
-    p.add_argument("--steps", type=int, default=100)
-    p.add_argument("--num-demos", type=int, default=200)
-    args = p.parse_args(argv)
-    rows = [bench(pr, m, args.episodes, args.steps, args.num_demos) for pr in args.presets for m in args.methods]
+def run(opts: BenchE2E) -> int:
+    for m in opts.methods:
+        get_method(m)  # an unknown method: one line before any work
+    rows = [bench(pr, m, opts.episodes, opts.steps, opts.num_demos) for pr in opts.presets for m in opts.methods]
     res = {"device": device_name(), "jax": jax.__version__, "x64": bool(jax.config.jax_enable_x64),
-           "command": "python -m poir_mjx.bench.e2e " + " ".join(sys.argv[1:] if argv is None else argv), "rows": rows}  # fmt: skip
+           "command": command_line(), "rows": rows}  # fmt: skip
     lines = ["# End-to-end evaluation throughput (Lift, sigma_init 0.2)", "",
              f"Device: {res['device']}; jax {res['jax']}, x64 {res['x64']}. Command: `{res['command']}`. "
              "One batch of episodes, timed after a warm-up batch that includes compilation.", "",
@@ -66,11 +61,8 @@ def main(argv=None) -> int:
         lines.append(f"| {r['preset']} | {r['method']} | {r['episodes']} x {r['steps']} | {r['episodes_per_min']:.1f} | "
                      f"{r['episode_steps_per_s']:.1f} | {r['compile_and_first_s']:.0f} |")  # fmt: skip
     md = "\n".join(lines) + "\n"
-    atomic_write_text(Path(args.out) / "e2e.json", json.dumps(res, indent=2) + "\n")
-    atomic_write_text(Path(args.out) / "e2e.md", md)
+    atomic_write_text(Path(opts.out) / "e2e.json", json.dumps(res, indent=2) + "\n")
+    atomic_write_text(Path(opts.out) / "e2e.md", md)
     print(md)
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

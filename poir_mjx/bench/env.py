@@ -1,4 +1,5 @@
-"""``make bench-env``: control steps per second, MJX at several batch sizes vs robosuite's env.step.
+"""``make bench-env`` (``python -m poir_mjx.cli bench env``): control steps per second, MJX at several batch
+sizes vs robosuite's env.step.
 
 Writes ``<out>/<name>.json`` and ``<out>/<name>.md`` (``make bench-env``: name ``env-<STACK>``). Without
 robosuite installed (the current dependency set) its row is left out. Also times ``mjx.kinematics`` on Lift at batch 1:
@@ -7,10 +8,8 @@ a regression guard for the jax/XLA CPU slowdown seen with newer jax (seconds ins
 
 from __future__ import annotations
 
-import argparse
 import json
 import platform
-import sys
 import time
 from pathlib import Path
 
@@ -18,8 +17,10 @@ import jax
 import numpy as np
 
 from poir_mjx.atomic import atomic_write_text
+from poir_mjx.cli import command_line
+from poir_mjx.cli.options import BenchEnv
 from poir_mjx.envs.env import batched, make_env, make_params
-from poir_mjx.envs.tasks import TASKS, make_robosuite
+from poir_mjx.envs.tasks import make_robosuite
 from poir_mjx.optional import has_robosuite
 from poir_mjx.versions import stack, stack_line
 
@@ -109,38 +110,25 @@ def to_markdown(res: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description="MJX vs robosuite control-step throughput")
-    p.add_argument("--out", default="results/bench")
-    p.add_argument("--tasks", nargs="+", default=list(TASKS), choices=TASKS)
-    p.add_argument("--batch-sizes", nargs="+", type=int, default=[1, 16, 64, 256])
-    p.add_argument("--contact-rich-batch-sizes", nargs="+", type=int, default=None,
-                   help="batch sizes for PickPlaceCan and NutAssemblySquare (default: --batch-sizes)")
-    p.add_argument("--steps", type=int, default=5, help="timed MJX control steps per batch size")
-    p.add_argument("--robosuite-steps", type=int, default=100)
-    p.add_argument("--name", default="env", help="output file name without extension")
-    args = p.parse_args(argv)
+def run(opts: BenchEnv) -> int:
     res = {
         "device": device_name(),
-        "command": "python -m poir_mjx.bench.env " + " ".join(sys.argv[1:] if argv is None else argv),
+        "command": command_line(),
         "versions": stack(),
         "stack_line": stack_line(),
         "kinematics": bench_kinematics(),
         "tasks": {},
     }
-    for task in args.tasks:
-        r = {"robosuite": bench_robosuite(task, args.robosuite_steps) if has_robosuite() else None, "mjx": []}
-        sizes = args.batch_sizes if (task == "lift" or not args.contact_rich_batch_sizes) else args.contact_rich_batch_sizes
+    for task in opts.tasks:
+        r = {"robosuite": bench_robosuite(task, opts.robosuite_steps) if has_robosuite() else None, "mjx": []}
+        rich = task != "lift" and opts.contact_rich_batch_sizes
+        sizes = opts.contact_rich_batch_sizes if rich else opts.batch_sizes
         for b in sizes:
-            r["mjx"].append(bench_mjx(task, b, args.steps))
+            r["mjx"].append(bench_mjx(task, b, opts.steps))
             print(f"{task} batch {b}: {r['mjx'][-1]['control_steps_per_s']:.1f} steps/s", flush=True)
         res["tasks"][task] = r
-    out = Path(args.out)
-    atomic_write_text(out / f"{args.name}.json", json.dumps(res, indent=2) + "\n")
-    atomic_write_text(out / f"{args.name}.md", to_markdown(res))
+    out = Path(opts.out)
+    atomic_write_text(out / f"{opts.name}.json", json.dumps(res, indent=2) + "\n")
+    atomic_write_text(out / f"{opts.name}.md", to_markdown(res))
     print(to_markdown(res))
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

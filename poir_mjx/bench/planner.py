@@ -1,4 +1,5 @@
-"""``make bench-planner``: planner calls per second, one episode and a batch, per preset and reward.
+"""``make bench-planner`` (``python -m poir_mjx.cli bench planner``): planner calls per second, one episode
+and a batch, per preset and reward.
 
 Network weights are random (speed does not depend on training); observation size 19 and action
 size 7 are Lift's robomimic low-dim layout; the L2 reward searches ``--expert-states`` states
@@ -7,9 +8,7 @@ size 7 are Lift's robomimic low-dim layout; the L2 reward searches ``--expert-st
 
 from __future__ import annotations
 
-import argparse
 import json
-import sys
 import time
 from pathlib import Path
 
@@ -18,9 +17,11 @@ import jax.numpy as jnp
 
 from poir_mjx.atomic import atomic_write_text
 from poir_mjx.bench.env import device_name
+from poir_mjx.cli import command_line
+from poir_mjx.cli.options import BenchPlanner
 from poir_mjx.core import ensemble as ens
 from poir_mjx.core.agent import POIR, POIRParams
-from poir_mjx.core.config import PRESETS, REWARDS
+from poir_mjx.core.config import PRESETS
 from poir_mjx.core.normalizer import Normalizer
 
 OBS, ACT = 19, 7
@@ -91,36 +92,23 @@ def to_markdown(res: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description="POIR planner throughput")
-    p.add_argument("--out", default="results/bench")
-    p.add_argument("--presets", nargs="+", default=["cpu-small", "paper"], choices=sorted(PRESETS))
-    p.add_argument("--rewards", nargs="+", default=list(REWARDS), choices=REWARDS)
-    p.add_argument("--batch-sizes", nargs="+", type=int, default=[1, 16])
-    p.add_argument("--paper-batch-sizes", nargs="+", type=int, default=None, help="batch sizes for the paper preset (default: --batch-sizes)")
-    p.add_argument("--calls", type=int, default=5)
-    p.add_argument("--expert-states", type=int, default=30000)
-    args = p.parse_args(argv)
+def run(opts: BenchPlanner) -> int:
     res = {
         "device": device_name(),
         "jax": jax.__version__,
-        "command": "python -m poir_mjx.bench.planner " + " ".join(sys.argv[1:] if argv is None else argv),
-        "expert_states": args.expert_states,
+        "command": command_line(),
+        "expert_states": opts.expert_states,
         "rows": [],
     }
-    for preset in args.presets:
-        batches = args.paper_batch_sizes if (preset == "paper" and args.paper_batch_sizes) else args.batch_sizes
-        for reward in args.rewards:
+    for preset in opts.presets:
+        batches = opts.paper_batch_sizes if (preset == "paper" and opts.paper_batch_sizes) else opts.batch_sizes
+        for reward in opts.rewards:
             for b in batches:
-                r = bench_one(preset, reward, b, args.calls, args.expert_states)
+                r = bench_one(preset, reward, b, opts.calls, opts.expert_states)
                 res["rows"].append(r)
                 print(f"{preset} {reward} batch {b}: {r['ms_per_call']:.1f} ms per call", flush=True)
-    out = Path(args.out)
+    out = Path(opts.out)
     atomic_write_text(out / "planner.json", json.dumps(res, indent=2) + "\n")
     atomic_write_text(out / "planner.md", to_markdown(res))
     print(to_markdown(res))
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

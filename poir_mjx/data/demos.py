@@ -1,8 +1,8 @@
 """``make demos``: scripted-expert demonstrations in robomimic's HDF5 layout, and the expert's success rate.
 
-    python -m poir_mjx.data.demos generate --tasks lift --num 200      # -> data/demos/<task>.hdf5
-    python -m poir_mjx.data.demos generate --simulator mjx --batch 256 # -> data/demos/<task>-mjx.hdf5
-    python -m poir_mjx.data.demos success --simulator robosuite --episodes 100
+    python -m poir_mjx.cli demos generate --tasks lift --num 200      # -> data/demos/<task>.hdf5
+    python -m poir_mjx.cli demos generate --simulator mjx --batch 256 # -> data/demos/<task>-mjx.hdf5
+    python -m poir_mjx.cli demos success --simulator robosuite --episodes 100
 
 Demonstrations are recorded at sigma_init 0.02 with no action noise, keeping only successful
 episodes, either in robosuite (MuJoCo C, as robomimic's were; needs robosuite) or in MJX
@@ -12,9 +12,7 @@ demonstrations with the same generator settings is left alone (``make demos`` sk
 
 from __future__ import annotations
 
-import argparse
 import json
-import sys
 import time
 from pathlib import Path
 
@@ -22,16 +20,18 @@ import jax
 import numpy as np
 
 from poir_mjx.atomic import atomic_write_text
+from poir_mjx.cli import command_line
+from poir_mjx.cli.options import DemosGenerate, DemosSuccess
+from poir_mjx.core.config import ConfigError
 from poir_mjx.data import expert as ex
 from poir_mjx.data import mjx_demos
 from poir_mjx.data.robomimic import ENV_NAMES, write_robomimic
 from poir_mjx.data.expert_episodes import EXPERT_STEPS, robosuite_episode
 from poir_mjx.envs.env import make_env, make_params
-from poir_mjx.envs.tasks import TASKS, make_robosuite, robosuite_kwargs
+from poir_mjx.envs.tasks import make_robosuite, robosuite_kwargs
 from poir_mjx.optional import require_robosuite
 from poir_mjx.rollout.episode import batched_episodes
 
-DEFAULT_DIR = Path("data/demos")
 SIMULATORS = ("robosuite", "mjx")
 
 
@@ -165,36 +165,21 @@ def robosuite_success(task: str, episodes: int, seed: int, sigma_init: float) ->
     }
 
 
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description="scripted-expert demonstrations")
-    sub = p.add_subparsers(dest="cmd", required=True)
-    g = sub.add_parser("generate", help="write robomimic HDF5 files of successful expert demos")
-    g.add_argument("--tasks", nargs="+", default=list(TASKS), choices=TASKS)
-    g.add_argument("--num", type=int, default=200)
-    g.add_argument("--seed", type=int, default=0)
-    g.add_argument("--sigma-init", type=float, default=0.02)
-    g.add_argument("--out", type=Path, default=DEFAULT_DIR)
-    g.add_argument("--simulator", default="robosuite", choices=SIMULATORS,
-                   help="robosuite (MuJoCo C, needs robosuite) or mjx (vectorised; -> <task>-mjx.hdf5)")
-    g.add_argument("--batch", type=int, default=16, help="MJX episodes per compiled batch (GPU: 256-1024)")
-    s = sub.add_parser("success", help="measure the expert's success rate and write a table")
-    s.add_argument("--tasks", nargs="+", default=list(TASKS), choices=TASKS)
-    s.add_argument("--simulator", nargs="+", default=["robosuite"], choices=["robosuite", "mjx"])
-    s.add_argument("--episodes", type=int, default=100)
-    s.add_argument("--seed", type=int, default=1)
-    s.add_argument("--sigma-init", type=float, default=0.02)
-    s.add_argument("--out", type=Path, default=Path("results/expert"))
-    args = p.parse_args(argv)
-    if args.cmd == "generate":
-        if args.num <= 0 or args.batch <= 0:
-            p.error("--num and --batch: must be positive")
-        for task in args.tasks:
-            generate(task, args.num, args.seed, args.sigma_init, args.out, simulator=args.simulator, batch=args.batch)
-        return 0
+def run_generate(opts: DemosGenerate) -> int:
+    if opts.num <= 0 or opts.batch <= 0:
+        raise ConfigError(f"--num and --batch: must be positive, got {opts.num} and {opts.batch}")
+    for task in opts.tasks:
+        generate(task, opts.num, opts.seed, opts.sigma_init, opts.out, simulator=opts.simulator, batch=opts.batch)
+    return 0
+
+
+def run_success(opts: DemosSuccess) -> int:
+    if opts.episodes <= 0:
+        raise ConfigError(f"--episodes: must be positive, got {opts.episodes}")
     rows = []
-    for task in args.tasks:
-        for sim in args.simulator:
-            r = (mjx_success if sim == "mjx" else robosuite_success)(task, args.episodes, args.seed, args.sigma_init)
+    for task in opts.tasks:
+        for sim in opts.simulator:
+            r = (mjx_success if sim == "mjx" else robosuite_success)(task, opts.episodes, opts.seed, opts.sigma_init)
             rows.append({"task": task, **r})
             print(f"{task} {sim}: {r['successes']}/{r['episodes']}", flush=True)
     dev = jax.devices()[0]
@@ -204,9 +189,8 @@ def main(argv=None) -> int:
         "Length: robosuite, the recorded demo (the episode stops 4 steps after the first success); "
         "MJX, the step of first success.",
         "",
-        f"Expert: {ex.NAME}; sigma_init {args.sigma_init}, no action noise, seed {args.seed}; "
-        f"JAX device {dev.platform} (x64 {jax.config.jax_enable_x64}). Command: `python -m poir_mjx.data.demos "
-        + " ".join(sys.argv[1:] if argv is None else argv) + "`.",
+        f"Expert: {ex.NAME}; sigma_init {opts.sigma_init}, no action noise, seed {opts.seed}; "
+        f"JAX device {dev.platform} (x64 {jax.config.jax_enable_x64}). Command: `{command_line()}`.",
         "",
         "| task | simulator | episodes | successes | success rate | diverged | mean length of successful episodes | wall s |",
         "|---|---|---|---|---|---|---|---|",
@@ -216,12 +200,8 @@ def main(argv=None) -> int:
         lines.append(f"| {r['task']} | {r['simulator']} | {r['episodes']} | {r['successes']} | "
                      f"{r['successes'] / r['episodes']:.2f} | {r['diverged']} | {ln} | {r['seconds']:.0f} |")  # fmt: skip
     table = "\n".join(lines) + "\n"
-    tag = "_".join(args.simulator)
-    atomic_write_text(args.out / f"success_{tag}.md", table)
-    atomic_write_text(args.out / f"success_{tag}.json", json.dumps(rows, indent=2) + "\n")
+    tag = "_".join(opts.simulator)
+    atomic_write_text(opts.out / f"success_{tag}.md", table)
+    atomic_write_text(opts.out / f"success_{tag}.json", json.dumps(rows, indent=2) + "\n")
     print(table)
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -42,66 +42,85 @@ def write_tables(cfg: SweepConfig, out: Path, digests: dict[str, str]) -> str:
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     sections = []
     for task in cfg.tasks:
         table = collect(cfg, out, task, digests[task])
-        if not table:
-            continue
-        data = next(iter(table.values()))["data"]
-        src = (f"scripted expert ({data.get('expert', '?')}, {data.get('simulator', '?')}, "
-               f"{data.get('num_demos', '?')} demos)" if data.get("source") == "scripted expert"
-               else f"robomimic file {data.get('path')}")  # fmt: skip
-        cols = [(si, sa) for si in cfg.sigma_init for sa in cfg.sigma_action]
-        md = [f"## {task}", "", f"Success rate (Wilson 95% interval), {cfg.episodes} episodes x {len(cfg.seeds)} seed(s) per cell, "
-              f"{cfg.max_steps} steps per episode, preset {cfg.preset}. Expert data: {src}. "
-              f"Simulator: {next(iter(table.values()))['simulator']}.", "",
-              "| method | " + " | ".join(_col(si, sa, cfg) for si, sa in cols) + " |",
-              "|---|" + "---|" * len(cols)]  # fmt: skip
-        csv = ["method," + ",".join(f"si={si:g} sa={sa:g} {x}" for si, sa in cols for x in ("rate", "lo", "hi"))]
-        for m in cfg.methods:
-            cells, row = [], []
-            for si, sa in cols:
-                c = table.get((m, si, sa))
-                if c is None:
-                    cells.append("-"), row.extend(["", "", ""])
-                else:
-                    div = f" ({c['diverged']} diverged)" if c["diverged"] else ""
-                    cells.append(f"{c['k'] / c['n']:.2f} [{c['ci'][0]:.2f}, {c['ci'][1]:.2f}]{div}")
-                    row.extend([f"{c['k'] / c['n']:.4f}", f"{c['ci'][0]:.4f}", f"{c['ci'][1]:.4f}"])
-            md.append(f"| {m} | " + " | ".join(cells) + " |")
-            csv.append(m + "," + ",".join(row))
-        md_text = "\n".join(md) + "\n"
-        atomic_write_text(out / f"{task}.md", md_text)
-        atomic_write_text(out / f"{task}.csv", "\n".join(csv) + "\n")
-        fig, ax = plt.subplots(figsize=(5, 3.5))
-        for m in cfg.methods:
-            for sa in cfg.sigma_action:
-                xs = [si for si in cfg.sigma_init if (m, si, sa) in table]
-                if not xs:
-                    continue
-                ys = [table[(m, si, sa)]["k"] / table[(m, si, sa)]["n"] for si in xs]
-                err = np.array([[y - table[(m, si, sa)]["ci"][0], table[(m, si, sa)]["ci"][1] - y] for si, y in zip(xs, ys)]).T
-                err = np.maximum(err, 0.0)
-                label = m if len(cfg.sigma_action) == 1 else f"{m} σ_act {sa:g}"
-                ax.errorbar(xs, ys, yerr=err, marker="o", capsize=3, label=label)
-        ax.set_xlabel("σ_init (initial joint noise)")
-        ax.set_ylabel("success rate")
-        ax.set_ylim(-0.05, 1.05)
-        ax.set_title(f"{task} ({cfg.preset})")
-        ax.legend(fontsize=8)
-        _save_png(fig, out / f"{task}.png")
-        section = md_text + f"\n![{task}]({task}.png)\n"
-        curves = write_learning_curves(cfg, out, task, digests[task])
-        if curves:
-            atomic_write_text(out / f"{task}.md", md_text + "\n" + curves)
-            section += "\n" + curves + f"\n![{task} online]({task}-online.png)\n"
-        sections.append(section)
+        if table:
+            sections.append(_write_task(cfg, out, task, table, digests[task]))
     summary = "\n".join([f"# Sweep {cfg.name}", "", "Config:", "", "```json",
                          json.dumps(dataclasses.asdict(cfg), indent=2), "```", ""] + sections)  # fmt: skip
     atomic_write_text(out / "summary.md", summary)
     return summary
+
+
+def _write_task(cfg: SweepConfig, out: Path, task: str, table: dict, digest: str) -> str:
+    """<task>.md, .csv and .png (and the online learning curves); returns the task's section of summary.md."""
+    md_text, csv_text = _task_table(cfg, task, table)
+    atomic_write_text(out / f"{task}.md", md_text)
+    atomic_write_text(out / f"{task}.csv", csv_text)
+    _plot_task(cfg, task, table, out / f"{task}.png")
+    section = md_text + f"\n![{task}]({task}.png)\n"
+    curves = write_learning_curves(cfg, out, task, digest)
+    if curves:
+        atomic_write_text(out / f"{task}.md", md_text + "\n" + curves)
+        section += "\n" + curves + f"\n![{task} online]({task}-online.png)\n"
+    return section
+
+
+def _data_source(data: dict) -> str:
+    if data.get("source") == "scripted expert":
+        return (f"scripted expert ({data.get('expert', '?')}, {data.get('simulator', '?')}, "
+                f"{data.get('num_demos', '?')} demos)")
+    return f"robomimic file {data.get('path')}"
+
+
+def _task_table(cfg: SweepConfig, task: str, table: dict) -> tuple[str, str]:
+    """(markdown, CSV) of one task: a row per method, a column per (sigma_init, sigma_action) cell."""
+    first = next(iter(table.values()))
+    cols = [(si, sa) for si in cfg.sigma_init for sa in cfg.sigma_action]
+    md = [f"## {task}", "", f"Success rate (Wilson 95% interval), {cfg.episodes} episodes x {len(cfg.seeds)} seed(s) "
+          f"per cell, {cfg.max_steps} steps per episode, preset {cfg.preset}. "
+          f"Expert data: {_data_source(first['data'])}. Simulator: {first['simulator']}.", "",
+          "| method | " + " | ".join(_col(si, sa, cfg) for si, sa in cols) + " |",
+          "|---|" + "---|" * len(cols)]  # fmt: skip
+    csv = ["method," + ",".join(f"si={si:g} sa={sa:g} {x}" for si, sa in cols for x in ("rate", "lo", "hi"))]
+    for m in cfg.methods:
+        cells, row = [], []
+        for si, sa in cols:
+            c = table.get((m, si, sa))
+            if c is None:
+                cells.append("-"), row.extend(["", "", ""])
+            else:
+                div = f" ({c['diverged']} diverged)" if c["diverged"] else ""
+                cells.append(f"{c['k'] / c['n']:.2f} [{c['ci'][0]:.2f}, {c['ci'][1]:.2f}]{div}")
+                row.extend([f"{c['k'] / c['n']:.4f}", f"{c['ci'][0]:.4f}", f"{c['ci'][1]:.4f}"])
+        md.append(f"| {m} | " + " | ".join(cells) + " |")
+        csv.append(m + "," + ",".join(row))
+    return "\n".join(md) + "\n", "\n".join(csv) + "\n"
+
+
+def _plot_task(cfg: SweepConfig, task: str, table: dict, path: Path) -> None:
+    """Success rate versus sigma_init with Wilson intervals, a line per method (and sigma_action)."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5, 3.5))
+    for m in cfg.methods:
+        for sa in cfg.sigma_action:
+            xs = [si for si in cfg.sigma_init if (m, si, sa) in table]
+            if not xs:
+                continue
+            cells = [table[(m, si, sa)] for si in xs]
+            ys = [c["k"] / c["n"] for c in cells]
+            err = np.array([[y - c["ci"][0], c["ci"][1] - y] for c, y in zip(cells, ys)]).T
+            err = np.maximum(err, 0.0)
+            label = m if len(cfg.sigma_action) == 1 else f"{m} σ_act {sa:g}"
+            ax.errorbar(xs, ys, yerr=err, marker="o", capsize=3, label=label)
+    ax.set_xlabel("σ_init (initial joint noise)")
+    ax.set_ylabel("success rate")
+    ax.set_ylim(-0.05, 1.05)
+    ax.set_title(f"{task} ({cfg.preset})")
+    ax.legend(fontsize=8)
+    _save_png(fig, path)
 
 
 def write_learning_curves(cfg: SweepConfig, out: Path, task: str, digest: str) -> str:

@@ -1,0 +1,74 @@
+"""poir-mjx command line: ``python -m poir_mjx.cli <command> [<subcommand>] [--flags]`` (or ``poir-mjx``).
+
+    sweep --config experiments/cpu-small.json [--planner.sigma 0.1 ...]   success rate versus noise (make sweep)
+    eval --ckpt PATH [--sigma-init ...] [--simulator both]               evaluate one checkpoint (make eval, xsim)
+    compare RUN... [--out F]                                             one table across runs (make ablations)
+    envs / demos generate / demos success / bench env|planner|e2e        the other make targets
+
+Each subcommand is a frozen dataclass of its options (``poir_mjx/cli/options.py``, or the module that
+owns it) and a function taking it; tyro builds the parser from the dataclasses (``--help`` on any
+subcommand lists its flags). Bad input: one line on stderr naming the file or the flag, exit status 2.
+"""
+
+from __future__ import annotations
+
+import contextvars
+import sys
+
+from poir_mjx.cli import options as o
+from poir_mjx.cli.parser import Command, parse
+
+# The registry: adding a subcommand is one line here. The options class and the function may be given as
+# "module:name" strings, imported when the parser is built (the class) or when the subcommand runs (the
+# function), e.g. Command("video", "poir_mjx.video:VideoConfig", "poir_mjx.video:render_video").
+COMMANDS: tuple[Command, ...] = (
+    Command("sweep", o.Sweep, "poir_mjx.cli.run:sweep"),
+    Command("eval", o.Eval, "poir_mjx.cli.evaluate:evaluate"),
+    Command("compare", o.Compare, "poir_mjx.cli.run:compare"),
+    Command("envs", o.Envs, "poir_mjx.cli.run:envs"),
+    Command("demos generate", o.DemosGenerate, "poir_mjx.data.demos:run_generate"),
+    Command("demos success", o.DemosSuccess, "poir_mjx.data.demos:run_success"),
+    Command("bench env", o.BenchEnv, "poir_mjx.bench.env:run"),
+    Command("bench planner", o.BenchPlanner, "poir_mjx.bench.planner:run"),
+    Command("bench e2e", o.BenchE2E, "poir_mjx.bench.e2e:run"),
+)
+# Subcommand groups: (help line, the subcommand run when none is named or None).
+GROUPS = {
+    "demos": ("Scripted-expert demonstrations (make demos) and the expert's success rate.", "generate"),
+    "bench": ("Throughput benchmarks (make bench-env, bench-planner, bench-e2e).", None),
+}
+PROG = "poir-mjx"
+
+_ARGV: contextvars.ContextVar[list[str]] = contextvars.ContextVar("poir_mjx_cli_argv", default=[])
+
+
+def command_line() -> str:
+    """The command being run, as results record it."""
+    return " ".join(["python -m poir_mjx.cli", *_ARGV.get()])
+
+
+def main(argv=None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    _ARGV.set(argv)
+    parsed = parse(COMMANDS, GROUPS, argv, PROG)
+    if isinstance(parsed, str):  # a parse error, as one line
+        print(f"error: {parsed}", file=sys.stderr)
+        return 2
+    command, opts = parsed
+
+    from poir_mjx.core.checkpoint import CheckpointError
+    from poir_mjx.core.config import ConfigError
+    from poir_mjx.data.robomimic import DatasetError
+    from poir_mjx.devices import DeviceError
+    from poir_mjx.envs.env import ModelFileError
+    from poir_mjx.envs.tasks import UnknownTaskError
+    from poir_mjx.eval.methods import UnknownMethodError
+    from poir_mjx.optional import MissingDependencyError
+
+    try:
+        rc = command.function()(opts)
+    except (ConfigError, CheckpointError, DatasetError, ModelFileError, UnknownTaskError, UnknownMethodError,
+            MissingDependencyError, DeviceError) as e:  # fmt: skip
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    return rc if type(rc) is int else 0

@@ -1,0 +1,192 @@
+"""The options of each subcommand: one frozen dataclass per subcommand, its field docstrings the help text.
+
+Only light imports here (no jax): the parser is built from these on every call, ``--help`` included.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Annotated, Literal, Optional
+
+import tyro
+
+from poir_mjx.cli.flags import flags_type
+from poir_mjx.core.config import PRESETS, REWARDS, PlannerConfig, POIRConfig
+from poir_mjx.envs.tasks import TASKS
+
+Task = Literal[TASKS]  # type: ignore[valid-type]
+Preset = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
+Reward = Literal[REWARDS]  # type: ignore[valid-type]
+
+# Every POIR config field as a flag (--ensemble-size, --planner.sigma, --normalizer.clip, --online.num-envs, ...).
+POIRFlags = flags_type(POIRConfig, "(default: the config file's)")
+# The planner's fields for `eval` (the weights fix the rest; --method picks the reward and the prior).
+PlannerFlags = flags_type(PlannerConfig, "(default: the checkpoint's)", exclude=("reward", "use_prior"))
+
+
+@dataclasses.dataclass(frozen=True)
+class Sweep:
+    """Success rate versus noise over a grid (make sweep); the POIR flags override the config file's."""
+
+    config: Path
+    """Sweep config file (experiments/*.json)."""
+    results: Path = Path("results")
+    """Results folder: the run goes to <results>/<name>/."""
+    data: Path = Path("data/demos")
+    """Folder of the scripted expert's demonstrations (made on first use)."""
+    checkpoints: Path = Path("checkpoints")
+    """Folder of the trained agents (reused when config and data match)."""
+    replace_config: bool = False
+    """Run a changed config in an existing run folder (cells made with other settings are recomputed)."""
+    poir: Annotated[POIRFlags, tyro.conf.arg(name="", prefix_name=False)] = POIRFlags()  # type: ignore[valid-type]
+    """POIR config fields, added to the file's "overrides" (a flag wins over the file)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Eval:
+    """Evaluate one checkpoint on a noise grid and print the table (make eval CKPT=..., make xsim CKPT=...)."""
+
+    ckpt: Path
+    """Checkpoint file (checkpoints/<task>/*.ckpt, made by a sweep)."""
+    method: Optional[str] = None
+    """Method from the registry; default: EBC for a policy checkpoint, POIR-DRIL for a POIR one."""
+    sigma_init: tuple[float, ...] = (0.02, 0.1, 0.2, 0.3, 0.4)
+    """Initial arm-joint noise levels."""
+    sigma_action: tuple[float, ...] = (0.0,)
+    """Action noise levels."""
+    episodes: int = 10
+    """Episodes per cell."""
+    max_steps: int = 400
+    """Control steps per episode."""
+    seed: int = 0
+    """Seed of the episode keys (the sweep's: same seed, grid and episodes give the sweep's episodes)."""
+    device: Literal["any", "cpu", "gpu"] = "any"
+    """gpu: fail unless jax sees a GPU; cpu: force the CPU; any: jax's default."""
+    simulator: Literal["mjx", "robosuite", "both"] = "mjx"
+    """mjx (vectorised), robosuite (the reference simulator, in --workers processes) or both side by side
+    with a Fisher exact test per cell (make xsim)."""
+    workers: int = 2
+    """robosuite worker processes."""
+    out: Optional[Path] = None
+    """Also write the table to this file (markdown)."""
+    planner: PlannerFlags = PlannerFlags()  # type: ignore[valid-type]
+    """Planner settings replacing the checkpoint's (POIR methods only)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Compare:
+    """One table across sweep runs, e.g. ablations (make ablations)."""
+
+    runs: tyro.conf.Positional[tuple[Path, ...]]
+    """Run folders (results/<name>)."""
+    out: Optional[Path] = None
+    """Also write the table to this file (markdown)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Envs:
+    """Export the robosuite tasks to MJX-ready MJCF under envs/ (make envs; needs robosuite)."""
+
+    out: Path = Path("envs")
+    """Output folder."""
+    task: Annotated[tuple[Task, ...], tyro.conf.UseAppendAction] = ()  # type: ignore[valid-type]
+    """Task to export, repeatable (default: all)."""
+    check: bool = False
+    """Only export the tasks whose files are missing."""
+
+
+@dataclasses.dataclass(frozen=True)
+class DemosGenerate:
+    """Write robomimic HDF5 files of successful scripted-expert demos (make demos)."""
+
+    tasks: tuple[Task, ...] = TASKS  # type: ignore[valid-type]
+    """Tasks to record."""
+    num: int = 200
+    """Successful demonstrations per task."""
+    seed: int = 0
+    """Seed of the episodes."""
+    sigma_init: float = 0.02
+    """Initial arm-joint noise."""
+    out: Path = Path("data/demos")
+    """Output folder."""
+    simulator: Literal["robosuite", "mjx"] = "robosuite"
+    """robosuite (MuJoCo C, needs robosuite) or mjx (vectorised; -> <task>-mjx.hdf5)."""
+    batch: int = 16
+    """MJX episodes per compiled batch (GPU: 256-1024)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class DemosSuccess:
+    """Measure the scripted expert's success rate and write a table (make expert-success)."""
+
+    tasks: tuple[Task, ...] = TASKS  # type: ignore[valid-type]
+    """Tasks to measure."""
+    simulator: tuple[Literal["robosuite", "mjx"], ...] = ("robosuite",)
+    """Simulators to measure in."""
+    episodes: int = 100
+    """Episodes per task and simulator."""
+    seed: int = 1
+    """Seed of the episodes."""
+    sigma_init: float = 0.02
+    """Initial arm-joint noise."""
+    out: Path = Path("results/expert")
+    """Output folder: success_<simulators>.{md,json}."""
+
+
+@dataclasses.dataclass(frozen=True)
+class BenchEnv:
+    """MJX vs robosuite control-step throughput (make bench-env) -> <out>/<name>.{json,md}."""
+
+    out: Path = Path("results/bench")
+    """Output folder."""
+    tasks: tuple[Task, ...] = TASKS  # type: ignore[valid-type]
+    """Tasks to time."""
+    batch_sizes: tuple[int, ...] = (1, 16, 64, 256)
+    """MJX batch sizes."""
+    contact_rich_batch_sizes: Optional[tuple[int, ...]] = None
+    """Batch sizes for PickPlaceCan and NutAssemblySquare (default: --batch-sizes)."""
+    steps: int = 5
+    """Timed MJX control steps per batch size."""
+    robosuite_steps: int = 100
+    """Timed robosuite control steps (where robosuite is installed)."""
+    name: str = "env"
+    """Output file name without extension."""
+
+
+@dataclasses.dataclass(frozen=True)
+class BenchPlanner:
+    """POIR planner calls per second (make bench-planner) -> <out>/planner.{json,md}."""
+
+    out: Path = Path("results/bench")
+    """Output folder."""
+    presets: tuple[Preset, ...] = ("cpu-small", "paper")  # type: ignore[valid-type]
+    """Presets to time."""
+    rewards: tuple[Reward, ...] = REWARDS  # type: ignore[valid-type]
+    """Imitation rewards to time."""
+    batch_sizes: tuple[int, ...] = (1, 16)
+    """Episodes per planner call."""
+    paper_batch_sizes: Optional[tuple[int, ...]] = None
+    """Batch sizes for the paper preset (default: --batch-sizes)."""
+    calls: int = 5
+    """Timed calls per row."""
+    expert_states: int = 30000
+    """Expert states the L2 reward searches."""
+
+
+@dataclasses.dataclass(frozen=True)
+class BenchE2E:
+    """Evaluated episodes per minute on Lift, per preset and method (make bench-e2e) -> <out>/e2e.{json,md}."""
+
+    out: Path = Path("results/bench")
+    """Output folder."""
+    presets: tuple[Preset, ...] = ("cpu-small",)  # type: ignore[valid-type]
+    """Presets to time."""
+    methods: tuple[str, ...] = ("EBC", "POIR-DRIL")
+    """Methods from the registry."""
+    episodes: int = 16
+    """Episodes per batch."""
+    steps: int = 100
+    """Control steps per episode."""
+    num_demos: int = 200
+    """Scripted-expert demonstrations to train on."""
