@@ -182,8 +182,9 @@ def to_dict(cfg) -> dict:
     return dataclasses.asdict(cfg)
 
 
-def apply_overrides(cfg: POIRConfig, overrides: dict, source: str = "overrides") -> POIRConfig:
-    """Replace dotted fields (e.g. {"online.total_env_steps": 20000}); unknown or invalid ones raise ConfigError."""
+def apply_overrides(cfg, overrides: dict, source: str = "overrides"):
+    """Replace dotted fields of a config dataclass (e.g. {"online.total_env_steps": 20000} on a POIRConfig);
+    unknown or invalid ones raise ConfigError."""
     d = to_dict(cfg)
     for dotted, value in overrides.items():
         node, parts = d, dotted.split(".")
@@ -194,7 +195,7 @@ def apply_overrides(cfg: POIRConfig, overrides: dict, source: str = "overrides")
         if parts[-1] not in node or isinstance(node[parts[-1]], dict):
             raise ConfigError(f"{source}: '{dotted}' is not a config field")
         node[parts[-1]] = value
-    return from_dict(d, POIRConfig, source)
+    return from_dict(d, type(cfg), source)
 
 
 def offline_config(cfg: POIRConfig) -> POIRConfig:

@@ -12,11 +12,11 @@ import numpy as np
 
 from poir_mjx.core import checkpoint
 from poir_mjx.core.agent import POIR
-from poir_mjx.core.config import ConfigError
+from poir_mjx.core.config import ConfigError, to_dict
 from poir_mjx.data.robomimic import LOW_DIM_KEYS, DatasetError, Transitions, read_transitions
 from poir_mjx.envs.layout import obs_groups
 from poir_mjx.eval.methods import Method, get_method
-from poir_mjx.eval.sweep_config import SweepConfig, base_config, config_dict, short_hash
+from poir_mjx.eval.sweep_config import SweepConfig, base_config, baseline_config, config_dict, short_hash
 
 
 def demos_for(cfg: SweepConfig, task: str, data_dir: Path, progress: bool = True) -> tuple[Transitions, dict]:
@@ -85,10 +85,18 @@ def cell_path(out: Path, task: str, method: str, si: float, sa: float, seed: int
     return out / "cells" / task / method / f"si={si:g}_sa={sa:g}_seed={seed}.json"
 
 
+def method_config_dict(cfg: SweepConfig, method: str) -> dict:
+    """What shapes a method's agent: its POIR config, or a baseline's own config."""
+    m = get_method(method)
+    if m.is_baseline:
+        return {"baseline": method, **to_dict(baseline_config(cfg, method))}
+    return config_dict(m.agent_config(base_config(cfg)), m.online)
+
+
 def cell_hash(cfg: SweepConfig, task: str, method: str, demo_sha256: str) -> str:
     relevant = {
         "demo_sha256": demo_sha256,
-        "preset": config_dict(get_method(method).agent_config(base_config(cfg)), get_method(method).online),
+        "preset": method_config_dict(cfg, method),
         "episodes": cfg.episodes,
         "max_steps": cfg.max_steps,
         "num_demos": cfg.num_demos,

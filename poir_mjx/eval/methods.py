@@ -6,6 +6,8 @@ agent; BC is its first network), every POIR variant uses the normalised BC + wor
 ensembles ("poir" agent) with its own planner settings. "POIR-<reward> online" starts from the same
 offline "poir" agent and keeps training its world model on its own deployment transitions
 (poir_mjx/online); its cell is the success after fine-tuning, its learning curve is kept beside it.
+The baselines (DAC, ValueDICE, SQIL, PPO+DRIL) train their own policies in each cell's perturbed MJX
+environment from the same expert data (poir_mjx/baselines); their cells hold the trained policy's success.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import dataclasses
 from typing import Callable
 
 from poir_mjx.core.agent import POIR
+from poir_mjx.baselines.registry import BASELINES
 from poir_mjx.core.config import POIRConfig, offline_config
 
 
@@ -24,12 +27,22 @@ class UnknownMethodError(ValueError):
 @dataclasses.dataclass(frozen=True)
 class Method:
     name: str
-    agent_kind: str  # "policy" (BC ensemble, no normalisation) or "poir" (normalised BC + world model)
-    act: str  # "bc", "ebc" or "plan"
+    agent_kind: str  # "policy" (BC ensemble, no normalisation), "poir" (normalised BC + world model) or "baseline"
+    act: str  # "bc", "ebc", "plan" or "learned" (a baseline's own policy)
     reward: str | None = None
     use_prior: bool = True
     online: bool = False  # fine-tune the world model on deployment data before the evaluation
     description: str = ""
+
+    @property
+    def is_baseline(self) -> bool:
+        """Trained online from scratch per cell by its own learner (poir_mjx/baselines), not from a POIR agent."""
+        return self.agent_kind == "baseline"
+
+    @property
+    def has_curve(self) -> bool:
+        """Its cells keep a learning curve (online fine-tuning or a baseline's training)."""
+        return self.online or self.is_baseline
 
     def agent_config(self, base: POIRConfig) -> POIRConfig:
         """The config this method's agent is trained and run with (online settings only for online methods)."""
@@ -67,6 +80,7 @@ METHODS: dict[str, Method] = {
         *(Method(f"POIR-{r.upper()} online", "poir", "plan", r, online=True,
                  description=f"POIR-{r.upper()} after online world-model fine-tuning in the cell's perturbed environment")
           for r in ("l2", "dril", "morel")),  # fmt: skip
+        *(Method(b.name, "baseline", "learned", description=b.description) for b in BASELINES.values()),
     )
 }
 

@@ -11,6 +11,7 @@ import numpy as np
 
 from poir_mjx.atomic import atomic_write_text
 from poir_mjx.eval.artifacts import cell_hash, cell_path, read_cell
+from poir_mjx.eval.baseline_report import write_baseline_curves
 from poir_mjx.eval.methods import get_method
 from poir_mjx.eval.stats import wilson_interval
 from poir_mjx.eval.sweep_config import SweepConfig, base_config
@@ -60,10 +61,17 @@ def _write_task(cfg: SweepConfig, out: Path, task: str, table: dict, digest: str
     atomic_write_text(out / f"{task}.csv", csv_text)
     _plot_task(cfg, task, table, out / f"{task}.png")
     section = md_text + f"\n![{task}]({task}.png)\n"
+    extra = ""
     curves = write_learning_curves(cfg, out, task, digest)
     if curves:
-        atomic_write_text(out / f"{task}.md", md_text + "\n" + curves)
+        extra += "\n" + curves
         section += "\n" + curves + f"\n![{task} online]({task}-online.png)\n"
+    base = write_baseline_curves(cfg, out, task, digest, _col)
+    if base:
+        extra += "\n" + base
+        section += "\n" + base + f"\n![{task} baselines]({task}-baselines.png)\n"
+    if extra:
+        atomic_write_text(out / f"{task}.md", md_text + extra)
     return section
 
 
@@ -120,7 +128,7 @@ def _plot_task(cfg: SweepConfig, task: str, table: dict, path: Path) -> None:
     ax.set_ylim(-0.05, 1.05)
     ax.set_title(f"{task} ({cfg.preset})")
     ax.legend(fontsize=8)
-    _save_png(fig, path)
+    save_png(fig, path)
 
 
 def write_learning_curves(cfg: SweepConfig, out: Path, task: str, digest: str) -> str:
@@ -171,11 +179,11 @@ def write_learning_curves(cfg: SweepConfig, out: Path, task: str, digest: str) -
     ax2.set_ylabel("one-step error on new deployment data")
     ax2.set_yscale("log")
     ax2.legend(fontsize=7)
-    _save_png(fig, out / f"{task}-online.png")
+    save_png(fig, out / f"{task}-online.png")
     return "\n".join(md + rows) + "\n"
 
 
-def _save_png(fig, path: Path) -> None:
+def save_png(fig, path: Path) -> None:
     """Save and close a figure atomically (temporary name, then rename)."""
     import matplotlib.pyplot as plt
 

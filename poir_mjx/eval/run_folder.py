@@ -26,8 +26,11 @@ def check_run_name(name: str, source: str) -> str:
     return name
 
 
-def prepare(out: Path, config: dict, replace_config: bool = False) -> None:
-    """Create `out`, check it is writable, and record `config` there (or check it matches the recorded one)."""
+def prepare(out: Path, config: dict, replace_config: bool = False, defaults: dict | None = None) -> None:
+    """Create `out`, check it is writable, and record `config` there (or check it matches the recorded one).
+
+    defaults: the config's default values; a field the recorded config lacks (it predates the field) counts as its
+    default, so adding a field to the config does not orphan existing run folders."""
     try:
         out.mkdir(parents=True, exist_ok=True)
         fd, probe = tempfile.mkstemp(dir=out, prefix=".write-check.")
@@ -45,7 +48,9 @@ def prepare(out: Path, config: dict, replace_config: bool = False) -> None:
             raise ConfigError(f"{recorded}: unreadable ({e})") from None
         if old == new:
             return
-        if not replace_config:
+        if isinstance(old, dict) and defaults is not None:
+            old = {**json.loads(json.dumps(defaults)), **old}
+        if not replace_config and old != new:
             diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
             raise ConfigError(f"{recorded}: this run folder was made with a different config (fields {diff}); "
                               "use another name, or --replace-config to recompute the changed cells here")  # fmt: skip

@@ -57,6 +57,9 @@ class SweepConfig:
     """If > 0, overrides the preset's training epochs."""
     overrides: dict = dataclasses.field(default_factory=dict)
     """Dotted POIR config fields replacing the preset's values, e.g. {"online.total_env_steps": 20000}."""
+    baseline_overrides: dict = dataclasses.field(default_factory=dict)
+    """Per baseline method, dotted fields of its config replacing the preset's, e.g.
+    {"DAC": {"total_env_steps": 20000}} (poir_mjx/baselines: each algorithm's Config)."""
     x64: bool = False
     """MJX physics in float64 (float32 once launched Square's nut mid-grasp); networks and planner stay float32."""
 
@@ -133,6 +136,13 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
         base_config(cfg)
     except ConfigError as e:
         raise ConfigError(f"{path}: field {e}") from None
+    for name, ov in cfg.baseline_overrides.items():
+        if name not in cfg.methods or not get_method(name).is_baseline:
+            raise ConfigError(f"{path}: field 'baseline_overrides': {name!r} is not a baseline in field 'methods'")
+        if not isinstance(ov, dict):
+            raise ConfigError(f"{path}: field 'baseline_overrides.{name}' must be an object")
+    for name in (m for m in cfg.methods if get_method(m).is_baseline):
+        baseline_config(cfg, name, f"{path}: field baseline_overrides")
     for task, f in cfg.demo_files.items():
         if task not in TASKS:
             raise ConfigError(f"{path}: field 'demo_files': unknown task {task!r}")
@@ -150,6 +160,13 @@ def base_config(cfg: SweepConfig) -> POIRConfig:
     if cfg.epochs:
         base = dataclasses.replace(base, train=dataclasses.replace(base.train, epochs=cfg.epochs))
     return apply_overrides(base, cfg.overrides) if cfg.overrides else base
+
+
+def baseline_config(cfg: SweepConfig, method: str, source: str = "baseline_overrides"):
+    """The config a baseline method trains with: its `preset` plus the sweep's overrides for it."""
+    from poir_mjx.baselines.registry import get_baseline
+
+    return get_baseline(method).config(cfg.preset, cfg.baseline_overrides.get(method), source)
 
 
 def config_dict(cfg: POIRConfig, online: bool) -> dict:

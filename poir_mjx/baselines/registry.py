@@ -1,0 +1,60 @@
+"""The four online imitation baselines by name: their configs (presets plus overrides) and learners.
+
+Each algorithm's module defines a frozen ``Config`` (documented fields), ``PRESETS`` {"paper", "cpu-small"} and a learner
+class ``(env, config, obs_size, act_size)`` implementing ``learner.Learner``. The sweep's ``preset`` picks the preset; a
+sweep's ``baseline_overrides`` {method: {dotted field: value}} replaces fields.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+
+from poir_mjx.core.config import ConfigError, apply_overrides, to_dict
+
+
+@dataclasses.dataclass(frozen=True)
+class Baseline:
+    name: str
+    module: str  # poir_mjx.baselines.<module>
+    learner: str  # the learner class in it
+    description: str
+
+    def _mod(self):
+        return importlib.import_module(f"poir_mjx.baselines.{self.module}")
+
+    def config(self, preset: str, overrides: dict | None = None, source: str = "baseline_overrides"):
+        presets = self._mod().PRESETS
+        if preset not in presets:
+            raise ConfigError(f"preset: {self.name} has no preset {preset!r}; expected one of {sorted(presets)}")
+        cfg = presets[preset]
+        if overrides:
+            cfg = apply_overrides(cfg, overrides, f"{source}.{self.name}")
+        try:
+            cfg.validate()
+        except (ConfigError, ValueError) as e:
+            raise ConfigError(f"{source}.{self.name}: {e}") from None
+        return cfg
+
+    def make(self, env, cfg, obs_size: int, act_size: int):
+        return getattr(self._mod(), self.learner)(env, cfg, obs_size, act_size)
+
+    def config_dict(self, cfg) -> dict:
+        return to_dict(cfg)
+
+
+BASELINES: dict[str, Baseline] = {
+    b.name: b
+    for b in (
+        Baseline("DAC", "dac", "DAC", "adversarial imitation on SAC with absorbing states (Kostrikov et al. 2019)"),
+        Baseline("ValueDICE", "valuedice", "ValueDICE", "off-policy distribution matching (Kostrikov et al. 2020)"),
+        Baseline("SQIL", "sqil", "SQIL", "SAC with reward 1 on expert and 0 on agent transitions (Reddy et al. 2020)"),
+        Baseline("PPO+DRIL", "ppo_dril", "PPODRIL", "PPO on the DRIL reward, BC-ensemble disagreement (Brantley et al. 2020)"),
+    )
+}
+
+
+def get_baseline(name: str) -> Baseline:
+    if name not in BASELINES:
+        raise ConfigError(f"method: unknown baseline {name!r}; expected one of {', '.join(BASELINES)}")
+    return BASELINES[name]

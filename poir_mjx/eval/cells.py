@@ -1,0 +1,155 @@
+"""The cell runners of a sweep: offline methods (all noise cells in one batch), online fine-tuning and the baselines
+(one training run per noise cell, resumable). Each writes its cells' records atomically and returns the episodes run."""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import json
+import time
+from pathlib import Path
+from typing import Callable
+
+import jax
+import numpy as np
+
+from poir_mjx.atomic import atomic_write_text
+from poir_mjx.core.agent import POIR
+from poir_mjx.core.config import to_dict
+from poir_mjx.envs.env import make_env, make_params
+from poir_mjx.eval import robosuite_eval
+from poir_mjx.eval.artifacts import read_cell
+from poir_mjx.eval.episodes import run_episodes
+from poir_mjx.eval.stats import wilson_interval
+from poir_mjx.eval.sweep_config import SweepConfig, baseline_config
+
+
+@dataclasses.dataclass(frozen=True)
+class CellBatch:
+    """One (task, method, seed) of a sweep: its noise grid, the cell files, the keys and what every record shares."""
+
+    cfg: SweepConfig
+    task: str
+    method: str
+    seed: int
+    grid: list[tuple[float, float]]  # (sigma_init, sigma_action) per cell
+    paths: list[Path]  # the cell records, in grid order
+    keys: jax.Array  # one key per episode: cell j uses keys[j * episodes: (j + 1) * episodes]
+    chash: str
+    common: dict  # fields every record of the batch carries
+
+    def cell_keys(self, j: int) -> jax.Array:
+        e = self.cfg.episodes
+        return self.keys[j * e:(j + 1) * e]
+
+    def cell_key(self, j: int) -> jax.Array:
+        """The cell's own training stream (collection and updates), distinct from its evaluation keys."""
+        si, sa = self.grid[j]
+        key = jax.random.PRNGKey(self.seed)
+        for x in (2, round(si * 1e6), round(sa * 1e6)):
+            key = jax.random.fold_in(key, x)
+        return key
+
+    def record(self, j: int, successes: int, diverged: int, lengths, wall: float) -> dict:
+        n = self.cfg.episodes
+        lo, hi = wilson_interval(successes, n)
+        si, sa = self.grid[j]
+        rec = {**self.common, "sigma_init": si, "sigma_action": sa, "successes": successes,
+               "success_rate": successes / n, "wilson95": [lo, hi], "diverged": diverged, "wall_s": wall}  # fmt: skip
+        if lengths is not None:
+            rec["mean_episode_length"] = float(np.mean(lengths))
+        return rec
+
+    def write(self, j: int, rec: dict) -> None:
+        atomic_write_text(self.paths[j], json.dumps(rec, indent=2) + "\n")
+
+
+def run_offline_cells(b: CellBatch, method, agent: POIR, params, progress: bool) -> int:
+    """Every noise cell of the batch in one evaluation call (MJX or robosuite)."""
+    cfg = b.cfg
+    si = np.repeat([g[0] for g in b.grid], cfg.episodes)
+    sa = np.repeat([g[1] for g in b.grid], cfg.episodes)
+    t0 = time.perf_counter()
+    res = run_episodes(cfg.simulator, b.task, method, agent, params, b.keys, si, sa, cfg.max_steps, cfg.workers,
+                       progress)  # fmt: skip
+    wall = time.perf_counter() - t0
+    for j in range(len(b.grid)):
+        sl = slice(j * cfg.episodes, (j + 1) * cfg.episodes)
+        first = res["first_success"][sl]
+        b.write(j, b.record(j, int((first >= 0).sum()), int(res["diverged"][sl].sum()),
+                            np.where(first >= 0, first, cfg.max_steps), wall / len(b.grid)))  # fmt: skip
+    return len(si)
+
+
+def run_online_cells(b: CellBatch, agent: POIR, params, offline: tuple, ckpt_dir: Path, progress: bool,
+                     on_cell: Callable[[int], None]) -> None:  # fmt: skip
+    """Each noise cell is its own deployment environment: fine-tune there (resumable), evaluate on the cell's own
+    episode keys (the offline cell's keys: a paired comparison). offline: the expert (obs, actions, next_obs)."""
+    trainer = _online_trainer(b.task, agent, b.cfg.max_steps)
+    for j, (s_i, s_a) in enumerate(b.grid):
+        if read_cell(b.paths[j], b.chash):
+            on_cell(b.cfg.episodes)
+            continue
+        t0 = time.perf_counter()
+        ckpt = ckpt_dir / b.task / "online" / f"{_slug(b.method)}-{_cell_slug(b, j)}-{b.chash}.ckpt"
+        res = trainer.run(params, offline, make_params(s_i, s_a), b.cell_keys(j), b.cell_key(j),
+                          checkpoint_path=ckpt, config_hash=b.chash, progress=progress)  # fmt: skip
+        final = res.curve[-1]
+        rec = b.record(j, final["successes"], final["diverged"], None, time.perf_counter() - t0)
+        rec.update(curve=res.curve, rounds=res.rounds, online=to_dict(agent.config.online),
+                   resumed_from_round=res.resumed_from_round, online_checkpoint=str(ckpt))  # fmt: skip
+        b.write(j, rec)
+        on_cell(b.cfg.episodes)
+
+
+def run_baseline_cells(b: CellBatch, tr, ckpt_dir: Path, progress: bool, on_cell: Callable[[int], None]) -> None:
+    """Train the baseline in each noise cell's perturbed MJX environment (resumable), learning curve in MJX on the
+    cell's episode keys; the cell's success is the trained policy on those keys in the sweep's simulator."""
+    from poir_mjx.baselines.registry import get_baseline
+    from poir_mjx.baselines.run import expert_data, train_baseline
+
+    cfg = b.cfg
+    bcfg = baseline_config(cfg, b.method)
+    env = make_env(b.task)
+    learner = get_baseline(b.method).make(env, bcfg, tr.obs.shape[1], tr.actions.shape[1])
+    expert = expert_data(tr)
+    for j, (s_i, s_a) in enumerate(b.grid):
+        if read_cell(b.paths[j], b.chash):
+            on_cell(cfg.episodes)
+            continue
+        t0 = time.perf_counter()
+        ckpt = ckpt_dir / b.task / "baselines" / f"{_slug(b.method)}-{_cell_slug(b, j)}-{b.chash}.ckpt"
+        res = train_baseline(learner, env, expert, make_params(s_i, s_a), b.cell_keys(j), cfg.max_steps,
+                             b.cell_key(j), total_env_steps=bcfg.total_env_steps, eval_every=bcfg.eval_every,
+                             steps_per_iteration=learner.steps_per_iteration, checkpoint_path=ckpt,
+                             config_hash=b.chash, progress=progress)  # fmt: skip
+        if cfg.simulator == "mjx":
+            final = res.curve[-1]
+            k, div, lengths = final["successes"], final["diverged"], None
+        else:
+            out = robosuite_eval.evaluate(b.task, learner.policy_fn(), res.policy_params, b.cell_keys(j),
+                                          np.full(cfg.episodes, s_i), np.full(cfg.episodes, s_a), cfg.max_steps,
+                                          cfg.workers, progress=progress)  # fmt: skip
+            first = out["first_success"]
+            k, div, lengths = int((first >= 0).sum()), int(out["diverged"].sum()), np.where(first >= 0, first, cfg.max_steps)
+        rec = b.record(j, k, div, lengths, time.perf_counter() - t0)
+        rec.update(curve=res.curve, baseline=to_dict(bcfg), resumed_from_env_steps=res.resumed_from_env_steps,
+                   baseline_checkpoint=str(ckpt), curve_simulator="MJX (training environment)")  # fmt: skip
+        b.write(j, rec)
+        on_cell(cfg.episodes)
+
+
+def _slug(method: str) -> str:
+    return method.replace(" ", "_").replace("+", "-")
+
+
+def _cell_slug(b: CellBatch, j: int) -> str:
+    si, sa = b.grid[j]
+    return f"si={si:g}_sa={sa:g}_seed={b.seed}"
+
+
+@functools.lru_cache(maxsize=None)
+def _online_trainer(task: str, agent: POIR, steps: int):
+    from poir_mjx.online.loop import OnlineTrainer
+
+    return OnlineTrainer(make_env(task), agent, steps)
