@@ -2,9 +2,10 @@
 ``unroll_length`` steps of ``num_envs`` vmapped environments followed by ``epochs`` x ``minibatches`` updates.
 
 The reward is a function the caller supplies, ``reward_fn(reward_params, obs, action, next_obs) -> [num_envs]`` (raw
-observation vectors, the clipped action the environment received), so the same PPO trains on DRIL's reward
-(``ppo_dril.py``) or on a task's true reward (the tests' sanity check). Networks, losses and the action distribution:
-``ppo_losses.py``; vectorised environments with auto-reset: ``ppo_env.py``.
+observation vectors, ``next_obs`` non-finite where the physics diverged; the clipped action the environment received),
+so the same PPO trains on DRIL's reward (``ppo_dril.py``) or on a task's true reward (the tests' sanity check).
+Networks, losses and the action distribution: ``ppo_losses.py``; vectorised environments with auto-reset:
+``ppo_env.py``.
 """
 
 from __future__ import annotations
@@ -147,7 +148,8 @@ class PPO:
             clipped = jnp.clip(action, -1.0, 1.0)
             env_state, out = ppo_env.step(self.env, self.episode_steps, env_state, state.env_params, clipped, k_reset)
             reward = self.reward_fn(state.reward_params, obs, clipped, out.next_obs)
-            next_obs_n = self.normalise(state.obs_norm, out.next_obs)
+            # the reward sees a diverged state as it is (DRIL scores it as the worst); the value net sees zeros
+            next_obs_n = self.normalise(state.obs_norm, jnp.where(jnp.isfinite(out.next_obs), out.next_obs, 0.0))
             step = (obs_n, action, log_prob(mean, log_std, action), reward, next_obs_n, out.ended, out.diverged,
                     out.success)  # fmt: skip
             return env_state, step

@@ -19,7 +19,7 @@ from poir_mjx.rollout.protocol import Env
 class StepOut(NamedTuple):
     """What one vectorised step says about each environment, all [num_envs, ...]."""
 
-    next_obs: jax.Array  # the observation the action led to (before any reset), non-finite entries zeroed
+    next_obs: jax.Array  # the observation the action led to (before any reset), as is (non-finite if diverged)
     ended: jax.Array  # bool: the episode ended at this step (done, diverged or episode_steps reached); reset follows
     diverged: jax.Array  # bool: the physics went non-finite (terminal: not bootstrapped)
     success: jax.Array  # bool: an ended episode had succeeded (``first_success >= 0``); False where not ended
@@ -45,8 +45,8 @@ def observe(env: Env, states: Any) -> jax.Array:
 def step(env: Env, episode_steps: int, states: Any, env_params: Any, actions: jax.Array, key: jax.Array):
     """One step of every environment, then a reset of those whose episode ended -> (states, StepOut)."""
     nxt = jax.vmap(env.step)(states, actions)
-    next_obs = observe(env, nxt)
-    diverged = nxt.info["diverged"] | ~jnp.all(jnp.isfinite(jax.vmap(env.obs_vector)(nxt)), -1)
+    next_obs = jax.vmap(env.obs_vector)(nxt).astype(jnp.float32)
+    diverged = nxt.info["diverged"] | ~jnp.all(jnp.isfinite(next_obs), -1)
     ended = nxt.done | diverged | (nxt.info["step"] >= episode_steps)
 
     def with_resets(nxt):
