@@ -1,7 +1,8 @@
 """The contract every baseline implements, so one run loop trains, checkpoints, evaluates and plots them all.
 
-A learner owns one compiled training phase: ``train(state, iterations)`` runs ``iterations`` x (one step of every
-vectorised environment + that algorithm's updates) inside ``lax.scan``; the loop around it (``poir_mjx/baselines/run.py``)
+A learner owns one compiled training phase: ``train(state, iterations)`` runs ``iterations`` x (a step of every
+vectorised environment, or an unroll of several steps for on-policy methods, + that algorithm's updates) inside
+``lax.scan``; the loop around it (``poir_mjx/baselines/run.py``)
 evaluates the deterministic policy with the project's evaluator every so many environment steps, checkpoints the whole
 ``TrainState`` pytree by name, and resumes from it.
 
@@ -35,6 +36,7 @@ class Learner(Protocol):
     counters); it must hold a scalar int32 ``env_steps`` leaf reachable as ``env_steps(state)``."""
 
     name: str
+    env_steps_per_iteration: int  # environment steps (all envs together) one ``train`` iteration takes
 
     def init(self, key: jax.Array, expert: ExpertData, env_params: Any) -> Any:
         """The initial TrainState: networks, optimisers, replay (seeded with expert data where the method does), and

@@ -31,13 +31,16 @@ class Baseline:
         if overrides:
             cfg = apply_overrides(cfg, overrides, f"{source}.{self.name}")
         try:
-            cfg.validate()
+            (cfg.validate if hasattr(cfg, "validate") else cfg.check)()
         except (ConfigError, ValueError) as e:
             raise ConfigError(f"{source}.{self.name}: {e}") from None
         return cfg
 
     def make(self, env, cfg, obs_size: int, act_size: int):
-        return getattr(self._mod(), self.learner)(env, cfg, obs_size, act_size)
+        cls = getattr(self._mod(), self.learner)
+        if self.module == "ppo_dril":  # sizes come from the expert data at init
+            return cls(env, cfg)
+        return cls(env, cfg, obs_size, act_size)
 
     def config_dict(self, cfg) -> dict:
         return to_dict(cfg)

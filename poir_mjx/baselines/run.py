@@ -40,13 +40,13 @@ def expert_data(tr) -> ExpertData:
     return ExpertData(f32(tr.obs), f32(tr.actions), f32(tr.next_obs), terminal, initial)
 
 
-def chunk_iterations(steps_per_iteration: int, eval_every: int) -> int:
+def chunk_iterations(env_steps_per_iteration: int, eval_every: int) -> int:
     """Training iterations between two evaluations (at least one)."""
-    return max(1, eval_every // max(1, steps_per_iteration))
+    return max(1, eval_every // max(1, env_steps_per_iteration))
 
 
 def train_baseline(learner: Learner, env, expert: ExpertData, env_params, eval_keys: jax.Array, eval_steps: int,
-                   key: jax.Array, *, total_env_steps: int, eval_every: int, steps_per_iteration: int,
+                   key: jax.Array, *, total_env_steps: int, eval_every: int, env_steps_per_iteration: int,
                    checkpoint_path: str | Path | None = None, config_hash: str = "",
                    progress: bool = False) -> BaselineResult:  # fmt: skip
     """Train `learner` in `env` perturbed by `env_params` (scalar noise levels) until `total_env_steps`.
@@ -81,8 +81,8 @@ def train_baseline(learner: Learner, env, expert: ExpertData, env_params, eval_k
     if not curve:
         curve.append(evaluate(state, None))
         save()
-    iters = chunk_iterations(steps_per_iteration, eval_every)
-    chunks = math.ceil(max(0, total_env_steps - resumed) / (iters * steps_per_iteration))
+    iters = chunk_iterations(env_steps_per_iteration, eval_every)
+    chunks = math.ceil(max(0, total_env_steps - resumed) / (iters * env_steps_per_iteration))
     bar = tqdm(total=total_env_steps, initial=resumed, desc=learner.name, unit="step", disable=not progress)
     for _ in range(chunks):
         before = int(learner.env_steps(state))

@@ -121,7 +121,7 @@ def run_baseline_cells(b: CellBatch, tr, ckpt_dir: Path, progress: bool, on_cell
         ckpt = ckpt_dir / b.task / "baselines" / f"{_slug(b.method)}-{_cell_slug(b, j)}-{b.chash}.ckpt"
         res = train_baseline(learner, env, expert, make_params(s_i, s_a), b.cell_keys(j), cfg.max_steps,
                              b.cell_key(j), total_env_steps=bcfg.total_env_steps, eval_every=bcfg.eval_every,
-                             steps_per_iteration=learner.steps_per_iteration, checkpoint_path=ckpt,
+                             env_steps_per_iteration=learner.env_steps_per_iteration, checkpoint_path=ckpt,
                              config_hash=b.chash, progress=progress)  # fmt: skip
         if cfg.simulator == "mjx":
             final = res.curve[-1]

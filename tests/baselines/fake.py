@@ -13,7 +13,7 @@ class StepLearner:
 
     num_envs: int = 4
     name: str = "step-learner"
-    steps_per_iteration: int = 4
+    env_steps_per_iteration: int = 4
 
     def init(self, key, expert, env_params):
         return {"speed": jnp.float32(0.0), "env_steps": jnp.int32(0), "key": key}

@@ -17,7 +17,7 @@ ENV = PointMassEnv(drift_y=0.0, horizon=30)
 def _run(path, total):
     keys = jax.random.split(jax.random.PRNGKey(0), 8)
     return train_baseline(StepLearner(), ENV, None, make_params(0.05, 0.0), keys, 30, jax.random.PRNGKey(1),
-                          total_env_steps=total, eval_every=8, steps_per_iteration=4, checkpoint_path=path)  # fmt: skip
+                          total_env_steps=total, eval_every=8, env_steps_per_iteration=4, checkpoint_path=path)  # fmt: skip
 
 
 def test_curve_follows_training_and_resumes_identically(tmp_path):
