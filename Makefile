@@ -39,7 +39,7 @@ SWEEP_ARGS ?=
 # Where `make demos` records the scripted expert: robosuite (MuJoCo C) or mjx (vectorised, no robosuite).
 DEMO_SIM ?= robosuite
 
-.PHONY: help venv envs demos expert-success test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench sweep sweep-online eval xsim ablations wheels clean
+.PHONY: help venv envs demos expert-success test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench sweep sweep-online eval xsim video ablations wheels clean
 
 help:
 	@echo "make test       - both dependency sets: the full suite on the CPU set, the current-stack suite (CI runs this)"
@@ -59,6 +59,7 @@ help:
 	@echo "make sweep-online - offline vs online fine-tuning, experiments/cpu-small-online.json -> results/cpu-small-online/"
 	@echo "make eval CKPT=... - evaluate one checkpoint on a noise grid, print the table (EVAL_ARGS='--simulator robosuite --out F')"
 	@echo "make xsim CKPT=... - the same checkpoint in MJX and in robosuite side by side, Fisher exact test per cell"
+	@echo "make video      - a sweep cell's episodes re-run in MJX, drawn offscreen -> results/videos/*.mp4 (VIDEO_ARGS='--run ... --method ...')"
 	@echo "make ablations  - POIR-DRIL planner/normaliser ablations on Lift in robosuite (experiments/ablations/) -> results/ablations.md"
 
 $(STAMP): pyproject.toml $(LOCKS)
@@ -131,6 +132,13 @@ ablations: $(STAMP)
 xsim: $(STAMP)
 	@test -n "$(CKPT)" || { echo "usage: make xsim CKPT=checkpoints/<task>/<file>.ckpt [EVAL_ARGS='--sigma-init 0.02 0.2 --episodes 20']"; exit 2; }
 	$(PY) -m poir_mjx.cli eval --ckpt "$(CKPT)" --simulator both $(EVAL_ARGS)
+
+# Episodes of a sweep cell re-run in MJX and drawn offscreen (EGL) to an MP4; the flags are VideoConfig's
+# fields (python -m poir_mjx.video --help). The default: `make sweep`'s run, EBC and POIR-DRIL side by side.
+VIDEO_ARGS ?= --run results/cpu-small --method EBC --versus POIR-DRIL --sigma-init 0.4 --episodes 0
+
+video: $(STAMP)
+	$(PY) -m poir_mjx.video $(VIDEO_ARGS)
 
 # Wheels of the current set (and CUDA=cuda13 plugin) for an x86-64 Linux machine with no network:
 # copy wheels/ there, then: pip install --no-index --find-links wheels -r requirements/current.txt -r requirements/cuda13.txt

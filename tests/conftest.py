@@ -1,4 +1,5 @@
 import os
+import sys
 from pathlib import Path
 
 import pytest
@@ -6,6 +7,9 @@ import pytest
 # JAX's persistent compilation cache in a local folder: MJX programs take minutes to compile on CPU.
 os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", str(Path(__file__).resolve().parents[1] / ".cache" / "jax"))
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "1")
+# Headless OpenGL for the video tests (tests/video): MuJoCo reads it when first imported.
+if sys.platform.startswith("linux"):
+    os.environ.setdefault("MUJOCO_GL", "egl")
 # The suite runs the float32 path that users run (`make sweep`); tests that need float64 physics
 # (NutAssemblySquare's fidelity test) open a `poir_mjx.compat.enable_x64()` scope themselves.
 

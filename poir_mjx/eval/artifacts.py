@@ -11,8 +11,8 @@ import jax
 import numpy as np
 
 from poir_mjx.core import checkpoint
-from poir_mjx.core.agent import POIR
-from poir_mjx.core.config import ConfigError, to_dict
+from poir_mjx.core.agent import POIR, POIRParams
+from poir_mjx.core.config import ConfigError, POIRConfig, to_dict
 from poir_mjx.data.robomimic import LOW_DIM_KEYS, DatasetError, Transitions, read_transitions
 from poir_mjx.envs.layout import obs_groups
 from poir_mjx.eval.methods import Method, get_method
@@ -50,15 +50,22 @@ def content_digest(path: Path, task: str) -> str:
     return transitions_digest(read_transitions(path, task=task))
 
 
+def checkpoint_file(method: Method, cfg: SweepConfig, task: str, seed: int, provenance: dict,
+                    ckpt_dir: Path) -> tuple[Path, POIRConfig, dict]:  # fmt: skip
+    """Where the sweep keeps (method's kind, task, seed)'s agent trained on the data `provenance` describes
+    (the path is keyed on the training config and the data), with the config and layout it must carry."""
+    tcfg = method.training_config(base_config(cfg))
+    layout = {"task": task, "obs_keys": list(LOW_DIM_KEYS), "seed": seed, "demos": provenance}
+    key = short_hash([config_dict(tcfg, online=False), layout])
+    return Path(ckpt_dir) / task / f"{method.agent_kind}-seed{seed}-{key}.ckpt", tcfg, layout
+
+
 def train_or_load(method: Method, cfg: SweepConfig, task: str, seed: int, tr: Transitions, provenance: dict,
                   ckpt_dir: Path, progress: bool = True):  # fmt: skip
     """The trained agent for (method's kind, task, seed), from its checkpoint if one matches."""
     from tqdm import tqdm
 
-    tcfg = method.training_config(base_config(cfg))
-    layout = {"task": task, "obs_keys": list(LOW_DIM_KEYS), "seed": seed, "demos": provenance}
-    key = short_hash([config_dict(tcfg, online=False), layout])
-    path = ckpt_dir / task / f"{method.agent_kind}-seed{seed}-{key}.ckpt"
+    path, tcfg, layout = checkpoint_file(method, cfg, task, seed, provenance, ckpt_dir)
     if path.exists():
         agent, params, _ = checkpoint.load(path, tcfg, layout)
     else:
@@ -119,3 +126,61 @@ def read_cell(path: Path, chash: str) -> dict | None:
     if not isinstance(rec, dict):
         raise ConfigError(f"{path}: not a cell record (expected a JSON object); delete it to recompute the cell")
     return rec if rec.get("config_hash") == chash else None
+
+
+def load_run_agent(run_dir: str | Path, task: str, method: str, seed: int = 0,
+                   data_dir: Path = Path("data/demos"), ckpt_dir: Path = Path("checkpoints"),
+                   progress: bool = True) -> tuple[POIR, POIRParams, Method]:  # fmt: skip
+    """The agent a sweep run evaluated for (task, method, seed): (agent set up for the method, params, Method).
+
+    Reads ``<run_dir>/config.json``. The checkpoint is the one the sweep used: found under `ckpt_dir`
+    from the data provenance the run's cells record (no demos read); if the run has no cell for it yet
+    or the checkpoint is gone, the demos are read (made if missing) and the agent is trained, which is
+    said on stderr. Online methods fine-tune per noise cell; their agents are not loaded here.
+    """
+    import sys
+
+    from poir_mjx.eval.sweep_config import load_sweep_config
+
+    src = Path(run_dir) / "config.json"
+    if not src.is_file():
+        raise ConfigError(f"{src}: no such file; expected a sweep run folder (results/<name>/)")
+    cfg = load_sweep_config(src)
+    for field, value, allowed in (("tasks", task, cfg.tasks), ("methods", method, cfg.methods),
+                                  ("seeds", seed, cfg.seeds)):  # fmt: skip
+        if value not in allowed:
+            raise ConfigError(f"{src}: field '{field}' has no {value!r} (the run has {list(allowed)})")
+    m = get_method(method)
+    if m.online or m.is_baseline:
+        raise ConfigError(f"{src}: field 'methods': {method} trains a separate agent in each noise cell; "
+                          "only offline methods can be loaded")  # fmt: skip
+    prov = recorded_provenance(Path(run_dir), cfg, task, method, seed)
+    if prov is not None:
+        path, tcfg, layout = checkpoint_file(m, cfg, task, seed, prov, ckpt_dir)
+        if path.exists():
+            agent, params, _ = checkpoint.load(path, tcfg, layout)
+            return POIR(m.agent_config(base_config(cfg)), agent.obs_size, agent.act_size), params, m
+    tr, prov = demos_for(cfg, task, data_dir, progress)
+    path, _, _ = checkpoint_file(m, cfg, task, seed, prov, ckpt_dir)
+    if not path.exists():
+        print(f"{path}: no checkpoint for run {cfg.name} ({task}, {method}, seed {seed}); training it now",
+              file=sys.stderr)  # fmt: skip
+    agent, params, _ = train_or_load(m, cfg, task, seed, tr, prov, ckpt_dir, progress)
+    return agent, params, m
+
+
+def recorded_provenance(out: Path, cfg: SweepConfig, task: str, method: str, seed: int) -> dict | None:
+    """The expert-data provenance a cell of (task, method, seed) in run folder `out` was made with, if any
+    cell made with `cfg` exists (its config hash checked)."""
+    for si in cfg.sigma_init:
+        for sa in cfg.sigma_action:
+            path = cell_path(out, task, method, si, sa, seed)
+            try:
+                rec = json.loads(path.read_text())
+            except (OSError, UnicodeDecodeError, ValueError):  # absent or unreadable: the sweep remakes it
+                continue
+            data = rec.get("data") if isinstance(rec, dict) else None
+            if isinstance(data, dict) and rec.get("config_hash") == cell_hash(cfg, task, method,
+                                                                              data.get("sha256", "")):
+                return data
+    return None

@@ -1,0 +1,21 @@
+"""Episode videos (``make video``): a sweep cell's episodes re-run in MJX, drawn offscreen, written to an MP4.
+
+``render_video(VideoConfig(run=Path("results/cpu-small"), method="EBC", versus="POIR-DRIL", sigma_init=0.4))``.
+Files by idea: ``config.py`` (what to render), ``record.py`` (the states, from the one episode rollout),
+``scene.py`` (the model a picture is drawn with), ``render.py`` (offscreen frames), ``encode.py`` (MP4),
+``video.py`` (the pieces together).
+
+MuJoCo chooses its OpenGL backend when it is first imported: on Linux this package sets
+``MUJOCO_GL=egl`` (headless) unless it is set, so import it before mujoco or set the variable yourself.
+"""
+
+import os
+import sys
+
+if sys.platform.startswith("linux"):
+    os.environ.setdefault("MUJOCO_GL", "egl")
+
+from poir_mjx.video.config import VideoConfig  # noqa: E402
+from poir_mjx.video.video import render_video  # noqa: E402
+
+__all__ = ["VideoConfig", "render_video"]
