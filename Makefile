@@ -134,11 +134,11 @@ xsim: $(STAMP)
 	$(PY) -m poir_mjx.cli eval --ckpt "$(CKPT)" --simulator both $(EVAL_ARGS)
 
 # Episodes of a sweep cell re-run in MJX and drawn offscreen (EGL) to an MP4; the flags are VideoConfig's
-# fields (python -m poir_mjx.video --help). The default: `make sweep`'s run, EBC and POIR-DRIL side by side.
+# fields (python -m poir_mjx.cli video --help). The default: `make sweep`'s run, EBC and POIR-DRIL side by side.
 VIDEO_ARGS ?= --run results/cpu-small --method EBC --versus POIR-DRIL --sigma-init 0.4 --episodes 0
 
 video: $(STAMP)
-	$(PY) -m poir_mjx.video $(VIDEO_ARGS)
+	$(PY) -m poir_mjx.cli video $(VIDEO_ARGS)
 
 # Wheels of the current set (and CUDA=cuda13 plugin) for an x86-64 Linux machine with no network:
 # copy wheels/ there, then: pip install --no-index --find-links wheels -r requirements/current.txt -r requirements/cuda13.txt

@@ -3,6 +3,7 @@
     sweep --config experiments/cpu-small.json [--planner.sigma 0.1 ...]   success rate versus noise (make sweep)
     eval --ckpt PATH [--sigma-init ...] [--simulator both]               evaluate one checkpoint (make eval, xsim)
     compare RUN... [--out F]                                             one table across runs (make ablations)
+    video --run RUN --method M [--versus M2] --sigma-init S              a cell's episodes as an MP4 (make video)
     envs / demos generate / demos success / bench env|planner|e2e        the other make targets
 
 Each subcommand is a frozen dataclass of its options (``poir_mjx/cli/options.py``, or the module that
@@ -31,6 +32,7 @@ COMMANDS: tuple[Command, ...] = (
     Command("bench env", o.BenchEnv, "poir_mjx.bench.env:run"),
     Command("bench planner", o.BenchPlanner, "poir_mjx.bench.planner:run"),
     Command("bench e2e", o.BenchE2E, "poir_mjx.bench.e2e:run"),
+    Command("video", "poir_mjx.video:VideoConfig", "poir_mjx.video.command:run"),
 )
 # Subcommand groups: (help line, the subcommand run when none is named or None).
 GROUPS = {

@@ -16,6 +16,13 @@ if sys.platform.startswith("linux"):
     os.environ.setdefault("MUJOCO_GL", "egl")
 
 from poir_mjx.video.config import VideoConfig  # noqa: E402
-from poir_mjx.video.video import render_video  # noqa: E402
 
 __all__ = ["VideoConfig", "render_video"]
+
+
+def __getattr__(name):  # render_video imported on first use: building the command line stays light
+    if name == "render_video":
+        from poir_mjx.video.video import render_video
+
+        return render_video
+    raise AttributeError(name)
