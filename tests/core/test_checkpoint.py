@@ -1,10 +1,12 @@
 import dataclasses
+import re
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from poir_mjx import checkpoint_codec as codec
 from poir_mjx.core import checkpoint
 from poir_mjx.core.agent import POIR
 from poir_mjx.core.config import ConfigError, MLPConfig, PlannerConfig, POIRConfig, TrainConfig, from_dict, preset, to_dict
@@ -50,6 +52,23 @@ def test_mismatched_layout_names_the_field(saved):
     _, _, path = saved
     with pytest.raises(checkpoint.CheckpointError, match="layout field 'task'"):
         checkpoint.load(path, CFG, {"task": "lift"})
+
+
+def test_parameters_are_checked_by_name_and_shape(saved, tmp_path):
+    _, _, path = saved
+    blob = codec.read(path, checkpoint.FORMAT)
+    kernel = blob["params"]["bc"]["params"]["Dense_0"]["kernel"]
+    blob["params"]["bc"]["params"]["Dense_0"]["kernel"] = kernel[:, :1]
+    bad = codec.write(tmp_path / "narrow.ckpt", checkpoint.FORMAT, {k: v for k, v in blob.items() if k != "format"})
+    with pytest.raises(checkpoint.CheckpointError,
+                       match=rf"narrow\.ckpt: field 'params\.bc\.params\.Dense_0\.kernel' has shape \(2, 1, 8\), "
+                             rf"expected {re.escape(str(kernel.shape))}"):  # fmt: skip
+        checkpoint.load(bad)
+    blob["params"]["bc"]["params"]["Dense_0"]["kernel"] = kernel
+    del blob["params"]["obs_norm"]["std"]
+    bad = codec.write(tmp_path / "nostd.ckpt", checkpoint.FORMAT, {k: v for k, v in blob.items() if k != "format"})
+    with pytest.raises(checkpoint.CheckpointError, match=r"nostd\.ckpt: field 'params\.obs_norm\.std' is missing"):
+        checkpoint.load(bad)
 
 
 def test_garbage_file_is_a_clear_error(tmp_path):
