@@ -25,11 +25,13 @@ import h5py
 import numpy as np
 
 from poir_mjx.atomic import atomic_path
+from poir_mjx.envs.layout import ACTION_SIZE, OBS_KEYS
+from poir_mjx.envs.tasks import ROBOSUITE_ENV
 
-# robomimic's low-dim observation keys for the three tasks.
-LOW_DIM_KEYS = ("robot0_eef_pos", "robot0_eef_quat", "robot0_gripper_qpos", "object")
-ACTION_SIZE = 7
-ENV_NAMES = {"lift": "Lift", "pick_place_can": "PickPlaceCan", "nut_assembly_square": "NutAssemblySquare"}
+# robomimic's names for what poir_mjx.envs defines: its low-dim observation keys, and the
+# env_args.env_name of each task (robosuite's class name).
+LOW_DIM_KEYS = OBS_KEYS
+ENV_NAMES = ROBOSUITE_ENV
 
 
 def robosuite_obs(o: dict) -> dict[str, np.ndarray]:
