@@ -9,7 +9,7 @@ import pytest
 from poir_mjx import checkpoint_codec as codec
 from poir_mjx.core import checkpoint
 from poir_mjx.core.agent import POIR
-from poir_mjx.core.config import ConfigError, MLPConfig, PlannerConfig, POIRConfig, TrainConfig, from_dict, preset, to_dict
+from poir_mjx.core.config import MLPConfig, PlannerConfig, POIRConfig, TrainConfig
 from tests.core.toy import expert_data
 
 CFG = POIRConfig(
@@ -78,20 +78,3 @@ def test_garbage_file_is_a_clear_error(tmp_path):
         checkpoint.load(bad)
     with pytest.raises(checkpoint.CheckpointError, match="no such checkpoint"):
         checkpoint.load(tmp_path / "missing.ckpt")
-
-
-def test_presets_and_config_validation():
-    paper = preset("paper")
-    assert (paper.planner.num_trajectories, paper.planner.horizon, paper.planner.sigma, paper.ensemble_size) == (4000, 5, 0.2, 27)
-    assert (paper.bc.layers, paper.bc.width, paper.train.learning_rate, paper.train.batch_size) == (5, 300, 1e-4, 256)
-    assert from_dict(to_dict(preset("cpu-small"))) == preset("cpu-small")
-    with pytest.raises(ConfigError, match="preset"):
-        preset("huge")
-    with pytest.raises(ConfigError, match=r"planner\.reward"):
-        from_dict({"planner": {"reward": "gail"}})
-    with pytest.raises(ConfigError, match=r"planner\.horizon: expected an integer"):
-        from_dict({"planner": {"horizon": "5"}})
-    with pytest.raises(ConfigError, match=r"train\.learning_rate: must be >= 0"):
-        from_dict({"train": {"learning_rate": -1.0}})
-    with pytest.raises(ConfigError, match="unknown field"):
-        from_dict({"planer": {}})
