@@ -18,7 +18,8 @@ def test_presets_validate_and_round_trip_through_plain_data(name):
 
 def test_preset_values():
     paper = preset("paper")
-    assert (paper.planner.num_trajectories, paper.planner.horizon, paper.planner.sigma, paper.ensemble_size) == (4000, 5, 0.2, 27)
+    planner = paper.planner
+    assert (planner.num_trajectories, planner.horizon, planner.sigma, paper.ensemble_size) == (4000, 5, 0.2, 27)
     assert (paper.bc.layers, paper.bc.width, paper.train.learning_rate, paper.train.batch_size) == (5, 300, 1e-4, 256)
     assert paper.online.total_env_steps == 500_000 and paper.online.eval_every == 50_000
     small = preset("cpu-small")
