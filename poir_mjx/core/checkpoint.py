@@ -1,7 +1,10 @@
-"""Checkpoints: parameters, normalisation statistics, the config and the observation layout, in one file.
+"""Agent checkpoints: parameters, normalisation statistics, the config and the observation layout, in one file.
 
-Format: msgpack (flax.serialization) of {"format", "config" (JSON), "layout" (JSON), "params"}.
-Writes go to a temporary file in the same folder, then an atomic rename. Loaded parameters are float32.
+Format (``poir_mjx.checkpoint_codec``): {"format", "config" (JSON), "layout" (JSON), "params" (the
+``POIRParams`` state dict, keyed by name)}. Loading rebuilds the agent from the stored config and
+restores the parameters into its expected structure (shapes from ``jax.eval_shape``, nothing
+computed), so every network layer, statistic and expert state is checked by name and shape.
+Loaded parameters are float32 whatever precision they were saved in.
 """
 
 from __future__ import annotations
@@ -11,10 +14,12 @@ from pathlib import Path
 from typing import Any
 
 import jax
+import jax.numpy as jnp
 import numpy as np
-from flax import serialization
 
-from poir_mjx.atomic import atomic_write_bytes
+from poir_mjx import checkpoint_codec as codec
+from poir_mjx.checkpoint_codec import CheckpointError
+from poir_mjx.core import ensemble as ens
 from poir_mjx.core.agent import POIR, POIRParams
 from poir_mjx.core.config import ConfigError, POIRConfig, from_dict, to_dict
 from poir_mjx.core.normalizer import Normalizer
@@ -22,65 +27,34 @@ from poir_mjx.core.normalizer import Normalizer
 FORMAT = "poir-mjx-checkpoint/1"
 
 
-class CheckpointError(ValueError):
-    """A checkpoint is unreadable or does not match what it is loaded for; the message names file and field."""
-
-
 def save(path: str | Path, agent: POIR, params: POIRParams, layout: dict[str, Any]) -> Path:
     """Write a checkpoint atomically. `layout` describes the observations (keys, sizes, task, data provenance)."""
-    path = Path(path)
-    state = {
-        "format": FORMAT,
+    return codec.write(path, FORMAT, {
         "config": json.dumps(to_dict(agent.config), sort_keys=True),
         "layout": json.dumps({**layout, "obs_size": agent.obs_size, "act_size": agent.act_size}, sort_keys=True),
-        "params": serialization.to_state_dict(jax.tree_util.tree_map(np.asarray, _plain(params))),
-    }
-    atomic_write_bytes(path, serialization.msgpack_serialize(state))
-    return path
+        "params": codec.state_dict(params),
+    })  # fmt: skip
 
 
-def _plain(params: POIRParams) -> dict:
-    return {
-        "bc": params.bc,
-        "wm": params.wm,
-        "reward_wm": params.reward_wm,
-        "obs_norm": {"mean": params.obs_norm.mean, "std": params.obs_norm.std},
-        "act_norm": {"mean": params.act_norm.mean, "std": params.act_norm.std},
-        "expert_states": params.expert_states,
-    }
-
-
-def read_blob(path: Path, fmt: str = FORMAT) -> dict:
-    """The msgpack mapping stored in `path`, which must carry format `fmt`; errors name the file and field."""
-    if path.is_dir():
-        raise CheckpointError(f"{path}: is a directory, expected a checkpoint file")
-    if not path.is_file():
-        raise CheckpointError(f"{path}: no such checkpoint file")
+def _read(path: Path) -> tuple[POIRConfig, dict, dict]:
+    """(config, layout, the whole stored mapping) of a checkpoint file, with clear errors."""
+    blob = codec.read(path, FORMAT)
     try:
-        state = serialization.msgpack_restore(path.read_bytes())
-    except Exception as e:
-        raise CheckpointError(f"{path}: not a poir-mjx checkpoint ({type(e).__name__}: {e})") from e
-    if not isinstance(state, dict) or state.get("format") != fmt:
-        raise CheckpointError(f"{path}: field 'format' is not {fmt!r}")
-    return state
-
-
-def read(path: str | Path) -> tuple[POIRConfig, dict, dict]:
-    """(config, layout, raw params) of a checkpoint file, with clear errors."""
-    path = Path(path)
-    state = read_blob(path)
-    try:
-        config = from_dict(json.loads(state["config"]), POIRConfig, source=f"{path}: config")
-    except (ConfigError, KeyError, json.JSONDecodeError) as e:
+        config = from_dict(codec.json_field(path, blob, "config"), POIRConfig, source=f"{path}: config")
+    except ConfigError as e:
         raise CheckpointError(f"{path}: field 'config' is invalid ({e})") from e
-    layout = json.loads(state["layout"])
-    return config, layout, state["params"]
+    layout = codec.json_field(path, blob, "layout")
+    for k in ("obs_size", "act_size"):
+        if not isinstance(layout, dict) or not isinstance(layout.get(k), int):
+            raise CheckpointError(f"{path}: field 'layout.{k}' is missing or not an integer")
+    return config, layout, blob
 
 
-def load(path: str | Path, config: POIRConfig | None = None, layout: dict | None = None) -> tuple[POIR, POIRParams, dict]:
+def load(path: str | Path, config: POIRConfig | None = None,
+         layout: dict | None = None) -> tuple[POIR, POIRParams, dict]:
     """Load a checkpoint; if `config` / `layout` are given they must match the checkpoint's exactly."""
     path = Path(path)
-    ck_config, ck_layout, raw = read(path)
+    ck_config, ck_layout, blob = _read(path)
     if config is not None and config != ck_config:
         diff = _first_difference(to_dict(config), to_dict(ck_config))
         raise CheckpointError(f"{path}: config field '{diff}' differs from the checkpoint's")
@@ -90,17 +64,31 @@ def load(path: str | Path, config: POIRConfig | None = None, layout: dict | None
                 raise CheckpointError(
                     f"{path}: observation layout field '{k}' is {ck_layout.get(k)!r} in the checkpoint, expected {v!r}"
                 )
-    agent = POIR(ck_config, int(ck_layout["obs_size"]), int(ck_layout["act_size"]))
-    params = POIRParams(
-        bc=raw["bc"],
-        wm=raw.get("wm"),
-        reward_wm=raw.get("reward_wm"),
-        obs_norm=Normalizer(raw["obs_norm"]["mean"], raw["obs_norm"]["std"]),
-        act_norm=Normalizer(raw["act_norm"]["mean"], raw["act_norm"]["std"]),
-        expert_states=raw["expert_states"],
-    )
-    params = jax.tree_util.tree_map(lambda x: jax.numpy.asarray(x, jax.numpy.float32), params)
+    agent = POIR(ck_config, ck_layout["obs_size"], ck_layout["act_size"])
+    params = codec.restore(path, params_template(agent, blob.get("params")), blob, "params", cast_floats=True)
     return agent, params, ck_layout
+
+
+def params_template(agent: POIR, stored: Any = None) -> POIRParams:
+    """The shapes and dtypes (``jax.ShapeDtypeStruct``) of `agent`'s parameters; what is data-dependent
+    (world models present or not, the number of expert states) is read from the `stored` state dict."""
+    stored = stored if isinstance(stored, dict) else {}
+    k, do, da = agent.config.ensemble_size, agent.obs_size, agent.act_size
+    key = jax.random.PRNGKey(0)
+
+    def nets(module, n_in):
+        return jax.eval_shape(lambda: ens.init_ensemble(module, key, k, n_in))
+
+    def wm(name):
+        return nets(agent.wm_module, do + da) if stored.get(name) is not None else None
+
+    def vec(n):
+        return jax.ShapeDtypeStruct((n,), jnp.float32)
+
+    rows = (np.shape(stored.get("expert_states", 0)) or (0,))[0]
+    return POIRParams(bc=nets(agent.bc_module, do), wm=wm("wm"), reward_wm=wm("reward_wm"),
+                      obs_norm=Normalizer(vec(do), vec(do)), act_norm=Normalizer(vec(da), vec(da)),
+                      expert_states=jax.ShapeDtypeStruct((rows, do), jnp.float32))  # fmt: skip
 
 
 def _first_difference(a, b, prefix=""):

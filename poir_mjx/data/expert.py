@@ -22,6 +22,8 @@ import mujoco
 import numpy as np
 from flax import struct
 
+from poir_mjx.envs.rotation import quat_xyzw_to_mat
+
 NAME = "poir-mjx scripted expert v1"
 
 
@@ -61,17 +63,6 @@ class ExpertState:
     jitter: jax.Array  # std of the per-step action noise
 
 
-def _quat_xyzw_to_mat(q):
-    x, y, z, w = q[0], q[1], q[2], q[3]
-    return jnp.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
-
-
 def _wrap(angle, period):
     return (angle + period / 2) % period - period / 2
 
@@ -79,7 +70,7 @@ def _wrap(angle, period):
 @functools.lru_cache(maxsize=None)
 def expert_task(task: str, envs_dir: str | None = None) -> ExpertTask:
     """Task constants read from the exported model (finger axis, handle offset, targets)."""
-    from poir_mjx.envs.env import load_model
+    from poir_mjx.envs.model import load_model
 
     m, meta = load_model(task, envs_dir)
     d = mujoco.MjData(m)
@@ -127,10 +118,10 @@ def init(task: ExpertTask, rng: jax.Array) -> ExpertState:
 def act(task: ExpertTask, obs: dict, st: ExpertState) -> tuple[jax.Array, ExpertState]:
     """One expert action (7,) in [-1, 1] and the next expert state."""
     eef = obs["robot0_eef_pos"]
-    r_hand = _quat_xyzw_to_mat(obs["robot0_eef_quat"])
+    r_hand = quat_xyzw_to_mat(obs["robot0_eef_quat"])
     o = obs["object"]
     obj = o[task.obj_pos_slice[0] : task.obj_pos_slice[1]]
-    r_obj = _quat_xyzw_to_mat(o[task.obj_quat_slice[0] : task.obj_quat_slice[1]])
+    r_obj = quat_xyzw_to_mat(o[task.obj_quat_slice[0] : task.obj_quat_slice[1]])
     grasp = obj + r_obj @ jnp.asarray(task.grasp_offset_obj)
     held_offset = eef - obj  # eef relative to the object (meaningful once grasped)
     is_lift = task.task == "lift"

@@ -25,11 +25,13 @@ import h5py
 import numpy as np
 
 from poir_mjx.atomic import atomic_path
+from poir_mjx.envs.layout import ACTION_SIZE, OBS_KEYS
+from poir_mjx.envs.tasks import ROBOSUITE_ENV
 
-# robomimic's low-dim observation keys for the three tasks.
-LOW_DIM_KEYS = ("robot0_eef_pos", "robot0_eef_quat", "robot0_gripper_qpos", "object")
-ACTION_SIZE = 7
-ENV_NAMES = {"lift": "Lift", "pick_place_can": "PickPlaceCan", "nut_assembly_square": "NutAssemblySquare"}
+# robomimic's names for what poir_mjx.envs defines: its low-dim observation keys, and the
+# env_args.env_name of each task (robosuite's class name).
+LOW_DIM_KEYS = OBS_KEYS
+ENV_NAMES = ROBOSUITE_ENV
 
 
 def robosuite_obs(o: dict) -> dict[str, np.ndarray]:
@@ -103,70 +105,24 @@ def read_transitions(
     `filter_key` selects the demos listed in ``mask/<filter_key>``.
     """
     path = str(path)
-    if os.path.isdir(path):
-        raise DatasetError(f"{path}: is a directory, expected a robomimic HDF5 file")
-    if not os.path.isfile(path):
-        raise DatasetError(f"{path}: no such file")
-    try:
-        f = h5py.File(path, "r")
-    except OSError as e:
-        raise DatasetError(f"{path}: not an HDF5 file ({e})") from e
-    with f:
+    with _open(path) as f:
         if "data" not in f or not isinstance(f["data"], h5py.Group):
             raise _err(path, None, "data", "missing group")
         data = f["data"]
         env_args = read_env_args(path)
         if task is not None:
-            want = ENV_NAMES.get(task)
-            if want is None:
-                raise DatasetError(f"task: unknown task {task!r}; expected one of {sorted(ENV_NAMES)}")
-            if env_args.get("env_name") != want:
-                raise _err(path, None, "data.attrs['env_args'].env_name", f"is {env_args.get('env_name')!r}, expected {want!r} for task {task}")
-        names = sorted((k for k in data.keys() if isinstance(data[k], h5py.Group)), key=_demo_sort_key)
-        if filter_key is not None:
-            mpath = f"mask/{filter_key}"
-            if mpath not in f:
-                raise _err(path, None, mpath, "missing filter key")
-            listed = [n.decode() if isinstance(n, bytes) else str(n) for n in f[mpath][()]]
-            for n in listed:
-                if n not in data:
-                    raise _err(path, n, mpath, f"filter lists demo {n!r} which is not in data/")
-            names = sorted(listed, key=_demo_sort_key)
-        if max_demos is not None:
-            names = names[:max_demos]
-        if not names:
-            raise _err(path, None, "data", "no demos")
+            _check_env_name(path, env_args, task)
+        names = _demo_names(path, f, filter_key, max_demos)
         obs_l, act_l, nxt_l, lengths, sizes = [], [], [], [], None
         for name in names:
-            demo = data[name]
-            act = _read(path, name, demo, "actions", ndim=2)
-            t = act.shape[0]
-            if t == 0:
-                raise _err(path, name, "actions", "empty demo (0 samples)")
-            if act.shape[1] != ACTION_SIZE:
-                raise _err(path, name, "actions", f"action size {act.shape[1]}, expected {ACTION_SIZE}")
-            ns = demo.attrs.get("num_samples")
-            if ns is not None and int(ns) != t:
-                raise _err(path, name, "attrs['num_samples']", f"is {int(ns)} but actions has {t} rows")
-            parts, nparts, demo_sizes = [], [], []
-            for group in ("obs", "next_obs"):
-                if group not in demo:
-                    raise _err(path, name, group, "missing group")
-            for key in obs_keys:
-                o = _read(path, name, demo["obs"], key, ndim=2, field=f"obs/{key}")
-                n = _read(path, name, demo["next_obs"], key, ndim=2, field=f"next_obs/{key}")
-                for fld, arr in ((f"obs/{key}", o), (f"next_obs/{key}", n)):
-                    if arr.shape[0] != t:
-                        raise _err(path, name, fld, f"length {arr.shape[0]} differs from actions length {t}")
-                if o.shape[1] != n.shape[1]:
-                    raise _err(path, name, f"next_obs/{key}", f"size {n.shape[1]} differs from obs/{key} size {o.shape[1]}")
-                parts.append(o), nparts.append(n), demo_sizes.append(o.shape[1])
+            obs, act, nxt, demo_sizes = _read_demo(path, name, data[name], obs_keys)
             if sizes is None:
-                sizes = tuple(demo_sizes)
-            elif tuple(demo_sizes) != sizes:
-                raise _err(path, name, "obs", f"observation sizes {demo_sizes} differ from earlier demos' {list(sizes)}")
-            obs_l.append(np.concatenate(parts, 1)), nxt_l.append(np.concatenate(nparts, 1)), act_l.append(act)
-            lengths.append(t)
+                sizes = demo_sizes
+            elif demo_sizes != sizes:
+                raise _err(path, name, "obs",
+                           f"observation sizes {list(demo_sizes)} differ from earlier demos' {list(sizes)}")
+            obs_l.append(obs), nxt_l.append(nxt), act_l.append(act)
+            lengths.append(act.shape[0])
         provenance = {k: _attr(v) for k, v in data.attrs.items() if k not in ("total", "env_args")}
     lengths = np.array(lengths)
     return Transitions(
@@ -182,6 +138,74 @@ def read_transitions(
         provenance=provenance,
         path=path,
     )
+
+
+def _open(path: str) -> h5py.File:
+    """The HDF5 file at `path`, opened for reading, or a DatasetError saying why not."""
+    if os.path.isdir(path):
+        raise DatasetError(f"{path}: is a directory, expected a robomimic HDF5 file")
+    if not os.path.isfile(path):
+        raise DatasetError(f"{path}: no such file")
+    try:
+        return h5py.File(path, "r")
+    except OSError as e:
+        raise DatasetError(f"{path}: not an HDF5 file ({e})") from e
+
+
+def _check_env_name(path: str, env_args: dict, task: str) -> None:
+    want = ENV_NAMES.get(task)
+    if want is None:
+        raise DatasetError(f"task: unknown task {task!r}; expected one of {sorted(ENV_NAMES)}")
+    if env_args.get("env_name") != want:
+        raise _err(path, None, "data.attrs['env_args'].env_name",
+                   f"is {env_args.get('env_name')!r}, expected {want!r} for task {task}")  # fmt: skip
+
+
+def _demo_names(path: str, f: h5py.File, filter_key: str | None, max_demos: int | None) -> list[str]:
+    """The demos to read, in robomimic's order (demo_0, demo_1, ..., demo_10): all, or those of the filter."""
+    data = f["data"]
+    names = sorted((k for k in data.keys() if isinstance(data[k], h5py.Group)), key=_demo_sort_key)
+    if filter_key is not None:
+        mpath = f"mask/{filter_key}"
+        if mpath not in f:
+            raise _err(path, None, mpath, "missing filter key")
+        listed = [n.decode() if isinstance(n, bytes) else str(n) for n in f[mpath][()]]
+        for n in listed:
+            if n not in data:
+                raise _err(path, n, mpath, f"filter lists demo {n!r} which is not in data/")
+        names = sorted(listed, key=_demo_sort_key)
+    if max_demos is not None:
+        names = names[:max_demos]
+    if not names:
+        raise _err(path, None, "data", "no demos")
+    return names
+
+
+def _read_demo(path: str, name: str, demo: h5py.Group, obs_keys: Sequence[str]):
+    """(obs [T, d], actions [T, A], next_obs [T, d], each key's size) of one demo, every field validated."""
+    act = _read(path, name, demo, "actions", ndim=2)
+    t = act.shape[0]
+    if t == 0:
+        raise _err(path, name, "actions", "empty demo (0 samples)")
+    if act.shape[1] != ACTION_SIZE:
+        raise _err(path, name, "actions", f"action size {act.shape[1]}, expected {ACTION_SIZE}")
+    ns = demo.attrs.get("num_samples")
+    if ns is not None and int(ns) != t:
+        raise _err(path, name, "attrs['num_samples']", f"is {int(ns)} but actions has {t} rows")
+    for group in ("obs", "next_obs"):
+        if group not in demo:
+            raise _err(path, name, group, "missing group")
+    parts, nparts = [], []
+    for key in obs_keys:
+        o = _read(path, name, demo["obs"], key, ndim=2, field=f"obs/{key}")
+        n = _read(path, name, demo["next_obs"], key, ndim=2, field=f"next_obs/{key}")
+        for fld, arr in ((f"obs/{key}", o), (f"next_obs/{key}", n)):
+            if arr.shape[0] != t:
+                raise _err(path, name, fld, f"length {arr.shape[0]} differs from actions length {t}")
+        if o.shape[1] != n.shape[1]:
+            raise _err(path, name, f"next_obs/{key}", f"size {n.shape[1]} differs from obs/{key} size {o.shape[1]}")
+        parts.append(o), nparts.append(n)
+    return np.concatenate(parts, 1), act, np.concatenate(nparts, 1), tuple(p.shape[1] for p in parts)
 
 
 def _attr(v):

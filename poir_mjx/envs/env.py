@@ -3,14 +3,16 @@
 ``env = make_env("lift")``; ``state = env.reset(rng, params)``; ``state = env.step(state, action)``.
 Nothing mutates: ``State`` is a pytree. A control step is robosuite's: 25 physics substeps of
 2 ms under ``lax.scan``, OSC_POSE torques recomputed on each substep (``osc.py``).
+
+Beside it: the model files and index table (``model.py``), observation and success
+(``observation.py``), the object placement at reset (``placement.py``), rotations (``rotation.py``),
+the observation keys and action size (``layout.py``).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
-import json
-from pathlib import Path
 from typing import Any
 
 import jax
@@ -22,12 +24,18 @@ from mujoco import mjx
 
 from poir_mjx.compat import x64_enabled
 from poir_mjx.envs import osc
-from poir_mjx.envs.tasks import check_task, task_files
-from poir_mjx.envs.variants import ModelVariants, compile_variant, variant_sizes
+from poir_mjx.envs import observation
+from poir_mjx.envs.layout import ACTION_SIZE, OBS_KEYS, obs_sizes
+from poir_mjx.envs.model import ModelFileError, load_model, load_variants, model_indices
+from poir_mjx.envs.observation import flatten_obs
+from poir_mjx.envs.placement import sample_object_pose
+from poir_mjx.envs.tasks import check_task
+from poir_mjx.envs.variants import ModelVariants
 
-ACTION_SIZE = 7
-# robomimic's low-dim observation keys (object last), with the sizes for each task.
-OBS_KEYS = ("robot0_eef_pos", "robot0_eef_quat", "robot0_gripper_qpos", "object")
+# What other modules take from here; the names defined beside (model, layout, observation) are kept
+# importable from this module, the environment's front door.
+__all__ = ["ACTION_SIZE", "OBS_KEYS", "EnvParams", "ModelFileError", "State", "TaskEnv", "batched", "flatten_obs",
+           "float_dtype", "load_model", "make_env", "make_params"]  # fmt: skip
 
 
 @struct.dataclass
@@ -63,81 +71,6 @@ class State:
     info: dict[str, Any]
 
 
-class ModelFileError(ValueError):
-    pass
-
-
-def load_model(task: str, envs_dir: str | Path | None = None) -> tuple[mujoco.MjModel, dict]:
-    """Compile envs/<task>.xml (meshes from envs/assets/, no robosuite needed) and read its metadata."""
-    files = task_files(task, envs_dir)
-    for f in (files.xml, files.meta):
-        if not f.exists():
-            raise ModelFileError(f"{f}: missing; run `make envs` to export the robosuite tasks")
-    try:
-        meta = json.loads(files.meta.read_text())
-    except json.JSONDecodeError as e:
-        raise ModelFileError(f"{files.meta}: not valid JSON ({e})") from e
-    spec = mujoco.MjSpec.from_string(files.xml.read_text())
-    spec.meshdir = str(files.xml.parent.resolve()) + "/"
-    try:
-        model = spec.compile()
-    except Exception as e:  # mujoco raises ValueError with the parser's message
-        raise ModelFileError(f"{files.xml}: does not compile ({e})") from e
-    if meta.get("task") != task:
-        raise ModelFileError(f"{files.meta}: field 'task' is {meta.get('task')!r}, expected {task!r}")
-    return model, meta
-
-
-def _ids(model, kind, names):
-    out = []
-    for n in names:
-        i = mujoco.mj_name2id(model, kind, n)
-        if i < 0:
-            raise ModelFileError(f"{kind.name} {n!r} not found in the exported model")
-        out.append(i)
-    return np.array(out, dtype=np.int32)
-
-
-def _quat_xyzw(q_wxyz):
-    return jnp.concatenate([q_wxyz[..., 1:], q_wxyz[..., :1]], -1)
-
-
-def _mat_to_quat_xyzw(r):
-    """robosuite's mat2quat (unit quaternion, w >= 0), returned as (x, y, z, w)."""
-    q = mjx_mat2quat(r)
-    q = jnp.where(q[0] < 0, -q, q)
-    return _quat_xyzw(q)
-
-
-def mjx_mat2quat(r):
-    """Shepperd's method, branch-free: quaternion (w, x, y, z) of a rotation matrix."""
-    t = jnp.trace(r)
-    cands = jnp.stack(
-        [
-            jnp.array([1 + t, r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]]),
-            jnp.array([r[2, 1] - r[1, 2], 1 + 2 * r[0, 0] - t, r[0, 1] + r[1, 0], r[0, 2] + r[2, 0]]),
-            jnp.array([r[0, 2] - r[2, 0], r[0, 1] + r[1, 0], 1 + 2 * r[1, 1] - t, r[1, 2] + r[2, 1]]),
-            jnp.array([r[1, 0] - r[0, 1], r[0, 2] + r[2, 0], r[1, 2] + r[2, 1], 1 + 2 * r[2, 2] - t]),
-        ]
-    )
-    k = jnp.argmax(jnp.array([t, r[0, 0], r[1, 1], r[2, 2]]))
-    q = cands[k]
-    return q / jnp.linalg.norm(q)
-
-
-def _quat_mul(a, b):
-    w1, x1, y1, z1 = a
-    w2, x2, y2, z2 = b
-    return jnp.array(
-        [
-            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
-        ]
-    )
-
-
 @dataclasses.dataclass(frozen=True, eq=False)
 class TaskEnv:
     """A robosuite task in MJX. Static configuration only; all episode data lives in ``State``."""
@@ -155,27 +88,7 @@ class TaskEnv:
     # ---- static indices (numpy) -------------------------------------------------------------
     @functools.cached_property
     def _idx(self) -> dict:
-        m, c = self.mj_model, self.meta["controller"]
-        arm_j = _ids(m, mujoco.mjtObj.mjOBJ_JOINT, c["arm_joints"])
-        grip_j = _ids(m, mujoco.mjtObj.mjOBJ_JOINT, c["gripper_joints"])
-        obj_j = _ids(m, mujoco.mjtObj.mjOBJ_JOINT, [self.meta["object_joint"]])[0]
-        arm_a = _ids(m, mujoco.mjtObj.mjOBJ_ACTUATOR, c["arm_actuators"])
-        grip_a = _ids(m, mujoco.mjtObj.mjOBJ_ACTUATOR, c["gripper_actuators"])
-        idx = dict(
-            arm_qpos=m.jnt_qposadr[arm_j],
-            arm_dof=m.jnt_dofadr[arm_j],
-            grip_qpos=m.jnt_qposadr[grip_j],
-            obj_qpos=int(m.jnt_qposadr[obj_j]),
-            arm_act=arm_a,
-            grip_act=grip_a,
-            eef_site=int(_ids(m, mujoco.mjtObj.mjOBJ_SITE, [c["eef_site"]])[0]),
-            origin_site=int(_ids(m, mujoco.mjtObj.mjOBJ_SITE, [c["origin_site"]])[0]),
-            eef_body=int(_ids(m, mujoco.mjtObj.mjOBJ_BODY, [c["eef_body"]])[0]),
-            obj_body=int(_ids(m, mujoco.mjtObj.mjOBJ_BODY, [self.meta["object_body"]])[0]),
-        )
-        if self.task == "nut_assembly_square":
-            idx["peg_body"] = int(_ids(m, mujoco.mjtObj.mjOBJ_BODY, [self.meta["success"]["peg_body"]])[0])
-        return idx
+        return model_indices(self.task, self.mj_model, self.meta)
 
     @property
     def action_size(self) -> int:
@@ -183,85 +96,24 @@ class TaskEnv:
 
     @property
     def obs_sizes(self) -> dict[str, int]:
-        return {"robot0_eef_pos": 3, "robot0_eef_quat": 4, "robot0_gripper_qpos": 2, "object": self.meta["object_obs_size"]}
+        return obs_sizes(self.meta)
 
     @property
     def horizon(self) -> int:
         return int(self.meta["horizon"])
 
-    # ---- observations and success ------------------------------------------------------------
+    # ---- observations and success (observation.py) -------------------------------------------
     def observe(self, d: mjx.Data, prev_obj_pos=None, prev_obj_mat=None) -> dict[str, jax.Array]:
-        """robomimic's low-dim observation of `d`.
-
-        robosuite computes Can/Square's object-in-gripper-frame entries (``<obj>_to_robot0_eef_*``)
-        before it refreshes the object's own pose, so they combine the current gripper pose with
-        the object pose of the previous observation, and are zero right after reset (empty cache).
-        robomimic's data carry that convention, so it is reproduced here: pass the previous
-        observation's object pose, or None at reset.
-        """
-        i = self._idx
-        eef_pos = d.site_xpos[i["eef_site"]]
-        eef_quat_wxyz = d.xquat[i["eef_body"]]
-        obj_pos = d.xpos[i["obj_body"]]
-        obj_quat_wxyz = d.xquat[i["obj_body"]]
-        r_eef = d.xmat[i["eef_body"]]
-        parts = []
-        for key in self.meta["object_obs_keys"]:
-            if key.startswith("gripper_to_"):
-                parts.append(obj_pos - eef_pos)
-            elif key.endswith("_to_robot0_eef_pos"):
-                parts.append(jnp.zeros(3) if prev_obj_pos is None else r_eef.T @ (prev_obj_pos - eef_pos))
-            elif key.endswith("_to_robot0_eef_quat"):
-                parts.append(jnp.zeros(4) if prev_obj_mat is None else _mat_to_quat_xyzw(r_eef.T @ prev_obj_mat))
-            elif key.endswith("_pos"):
-                parts.append(obj_pos)
-            elif key.endswith("_quat"):
-                parts.append(_quat_xyzw(obj_quat_wxyz))
-            else:
-                raise ModelFileError(f"object observation key {key!r} is not supported")
-        return {
-            "robot0_eef_pos": eef_pos,
-            "robot0_eef_quat": _quat_xyzw(eef_quat_wxyz),
-            "robot0_gripper_qpos": d.qpos[i["grip_qpos"]],
-            "object": jnp.concatenate(parts),
-        }
+        """robomimic's low-dim observation of `d` (the previous observation's object pose, None at reset)."""
+        return observation.observe(self._idx, self.meta, d, prev_obj_pos, prev_obj_mat)
 
     def _object_pose(self, d: mjx.Data):
-        return d.xpos[self._idx["obj_body"]], d.xmat[self._idx["obj_body"]]
+        return observation.object_pose(self._idx, d)
 
     def check_success(self, d: mjx.Data) -> jax.Array:
-        i, s = self._idx, self.meta["success"]
-        obj = d.xpos[i["obj_body"]]
-        if self.task == "lift":
-            return obj[2] > s["table_height"] + s["lift_margin"]
-        far = jnp.linalg.norm(d.site_xpos[i["eef_site"]] - obj) > s["min_gripper_distance"]
-        if self.task == "pick_place_can":
-            lo, hi = jnp.asarray(s["bin_low"]), jnp.asarray(s["bin_high"])
-            return jnp.all((obj > lo) & (obj < hi)) & far
-        peg = d.xpos[i["peg_body"]]
-        near = (jnp.abs(obj[0] - peg[0]) < s["xy_tolerance"]) & (jnp.abs(obj[1] - peg[1]) < s["xy_tolerance"])
-        return near & (obj[2] < s["max_height"]) & far
+        return observation.check_success(self.task, self._idx, self.meta, d)
 
     # ---- reset ---------------------------------------------------------------------------------
-    def _sample_object_pose(self, rng):
-        p = self.meta["placement"]
-        kx, ky, kr = jax.random.split(rng, 3)
-        r = p["horizontal_radius"] if p["ensure_object_boundary_in_range"] else 0.0
-        x = jax.random.uniform(kx, (), minval=p["x_range"][0] + r, maxval=p["x_range"][1] - r)
-        y = jax.random.uniform(ky, (), minval=p["y_range"][0] + r, maxval=p["y_range"][1] - r)
-        ref = p["reference_pos"]
-        pos = jnp.array([x + ref[0], y + ref[1], p["z_offset"] + ref[2] - p["bottom_offset"][2]])
-        rot = p["rotation"]
-        if rot is None:
-            angle = jax.random.uniform(kr, (), minval=0.0, maxval=2 * jnp.pi)
-        elif len(rot) > 1:
-            angle = jax.random.uniform(kr, (), minval=min(rot), maxval=max(rot))
-        else:
-            angle = jnp.asarray(rot[0])
-        axis = {"x": 1, "y": 2, "z": 3}[p["rotation_axis"]]
-        quat = jnp.zeros(4).at[0].set(jnp.cos(angle / 2)).at[axis].set(jnp.sin(angle / 2))
-        return pos, _quat_mul(quat, jnp.asarray(p["init_quat"]))
-
     def reset_to(self, qpos: jax.Array, rng: jax.Array, params: EnvParams, variant=0) -> State:
         """Start an episode from a given qpos (arm, gripper and object as laid out in the model), with
         object-size variant `variant` (0: the exported model)."""
@@ -304,7 +156,7 @@ class TaskEnv:
         noise = jax.random.normal(k_init, (7,)) * params.sigma_init
         qpos = qpos.at[i["arm_qpos"]].set(jnp.asarray(meta["init_qpos"]) + noise)
         qpos = qpos.at[i["grip_qpos"]].set(jnp.asarray(meta["gripper_init_qpos"]))
-        pos, quat = self._sample_object_pose(k_obj)
+        pos, quat = sample_object_pose(k_obj, meta["placement"])
         if self.variants is not None:  # the placement's bottom offset is the box's half height
             pos = pos.at[2].add(self.variants.sizes[variant, 2] - self.variants.sizes[0, 2])
         return qpos.at[i["obj_qpos"] : i["obj_qpos"] + 7].set(jnp.concatenate([pos, quat]))
@@ -398,14 +250,7 @@ def _make_env(task: str, envs_dir: str | None, x64: bool) -> TaskEnv:
     check_task(task)
     mj_model, meta = load_model(task, envs_dir)
     model = mjx.put_model(mj_model)
-    variants = None
-    if "object_size" in meta:
-        files = task_files(task, envs_dir)
-        gid = mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_GEOM, meta["object_size"]["geom"])
-        sizes = variant_sizes(meta, mj_model.geom_size[gid])
-        xml, meshdir = files.xml.read_text(), str(files.xml.parent.resolve()) + "/"
-        models = [model] + [mjx.put_model(compile_variant(xml, meshdir, meta, sz)) for sz in sizes[1:]]
-        variants = ModelVariants.build(models, sizes)
+    variants = load_variants(task, envs_dir, mj_model, model, meta)
     return TaskEnv(task=task, mj_model=mj_model, model=model, meta=meta, variants=variants)
 
 
@@ -422,8 +267,3 @@ def _batched(task: str, envs_dir: str | None, x64: bool):
         jax.jit(jax.vmap(env.reset_to)),
         jax.jit(jax.vmap(env.step)),
     )
-
-
-def flatten_obs(obs: dict[str, jax.Array], keys=OBS_KEYS) -> jax.Array:
-    """Concatenate robomimic's low-dim keys (in `keys` order) into one vector (batched or not)."""
-    return jnp.concatenate([obs[k] for k in keys], axis=-1)

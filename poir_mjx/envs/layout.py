@@ -1,4 +1,4 @@
-"""The policy's observation layout (robomimic's low-dim keys) and each dimension's physical kind."""
+"""The policy's observation layout (robomimic's low-dim keys), each dimension's physical kind, the action size."""
 
 from __future__ import annotations
 
@@ -10,6 +10,16 @@ from poir_mjx.envs.tasks import task_files
 # Robot part of the layout: key, size, group (the object's keys come from the task's metadata).
 ROBOT_OBS = (("robot0_eef_pos", 3, "position"), ("robot0_eef_quat", 4, "quaternion"),
              ("robot0_gripper_qpos", 2, "gripper"))  # fmt: skip
+ROBOT_OBS_SIZE = sum(n for _, n, _ in ROBOT_OBS)
+# robomimic's low-dim observation keys in the order the policy's vector concatenates them (object last).
+OBS_KEYS = tuple(k for k, _, _ in ROBOT_OBS) + ("object",)
+# OSC_POSE's action: position delta (3), axis-angle delta (3), gripper (1).
+ACTION_SIZE = 7
+
+
+def obs_sizes(meta: dict) -> dict[str, int]:
+    """Each observation key's size for the task described by `meta` (the object's from its metadata)."""
+    return {**{k: n for k, n, _ in ROBOT_OBS}, "object": meta["object_obs_size"]}
 
 
 def object_key_group(key: str) -> tuple[int, str]:
@@ -27,8 +37,10 @@ def obs_groups_from_meta(meta: dict) -> tuple[str, ...]:
     for key in meta["object_obs_keys"]:
         n, g = object_key_group(key)
         groups += [g] * n
-    if len(groups) - 9 != meta["object_obs_size"]:
-        raise ValueError(f"object_obs_keys: sizes add up to {len(groups) - 9}, not object_obs_size {meta['object_obs_size']}")
+    object_size = len(groups) - ROBOT_OBS_SIZE
+    if object_size != meta["object_obs_size"]:
+        raise ValueError(f"object_obs_keys: sizes add up to {object_size}, "
+                         f"not object_obs_size {meta['object_obs_size']}")
     return tuple(groups)
 
 

@@ -11,15 +11,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-
-def axisangle_to_mat(v: jax.Array) -> jax.Array:
-    """Rotation matrix of an axis-angle vector (robosuite's axisangle2quat -> quat2mat)."""
-    angle = jnp.linalg.norm(v)
-    safe = jnp.where(angle > 1e-12, angle, 1.0)
-    k = v / safe
-    kx = jnp.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    r = jnp.eye(3) + jnp.sin(angle) * kx + (1.0 - jnp.cos(angle)) * kx @ kx
-    return jnp.where(angle > 1e-12, r, jnp.eye(3))
+from poir_mjx.envs.rotation import axisangle_to_mat
 
 
 def orientation_error(desired: jax.Array, current: jax.Array) -> jax.Array:

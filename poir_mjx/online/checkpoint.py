@@ -1,8 +1,10 @@
 """Resumable online runs: the whole run state (world-model parameters, optimiser state, replay buffer,
 counters, RNG key) plus a JSON record (config hash, learning curve), written atomically.
 
-Format: msgpack of {"format", "meta" (JSON), "leaves": {"0": array, ...}}; the leaves are those of
-the run-state pytree in ``jax.tree_util`` order, restored into a template of the same structure.
+Format (``poir_mjx.checkpoint_codec``): {"format", "meta" (JSON), "state" (the run state's state
+dict, keyed by name)}, restored by name into a template of the run state (the freshly initialised
+one), every entry's shape and dtype checked. Files of the first format, which stored the leaves by
+their position in the pytree, are refused with the advice to delete them (the run then restarts).
 """
 
 from __future__ import annotations
@@ -11,46 +13,24 @@ import json
 from pathlib import Path
 from typing import Any
 
-import jax
-import numpy as np
-from flax import serialization
+from poir_mjx import checkpoint_codec as codec
+from poir_mjx.checkpoint_codec import CheckpointError
 
-from poir_mjx.atomic import atomic_write_bytes
-from poir_mjx.core.checkpoint import CheckpointError, read_blob
-
-FORMAT = "poir-mjx-online/1"
+FORMAT = "poir-mjx-online/2"
+RETIRED = {"poir-mjx-online/1": "an online run state stored by position, no longer read; "
+                                "delete this file and the run restarts from its first round"}  # fmt: skip
 
 
 def save(path: str | Path, state: Any, meta: dict) -> Path:
-    path = Path(path)
-    leaves = jax.tree_util.tree_leaves(state)
-    blob = {
-        "format": FORMAT,
-        "meta": json.dumps(meta, sort_keys=True),
-        "leaves": {str(i): np.asarray(x) for i, x in enumerate(leaves)},
-    }
-    atomic_write_bytes(path, serialization.msgpack_serialize(blob))
-    return path
+    return codec.write(path, FORMAT, {"meta": json.dumps(meta, sort_keys=True), "state": codec.state_dict(state)})
 
 
 def load(path: str | Path, template: Any, config_hash: str) -> tuple[Any, dict]:
     """Restore a run state shaped like `template`; the checkpoint must carry `config_hash`."""
     path = Path(path)
-    blob = read_blob(path, FORMAT)
-    try:
-        meta = json.loads(blob["meta"])
-    except (KeyError, json.JSONDecodeError) as e:
-        raise CheckpointError(f"{path}: field 'meta' is invalid ({e})") from e
-    if meta.get("config_hash") != config_hash:
-        raise CheckpointError(f"{path}: field 'config_hash' is {meta.get('config_hash')!r}, expected {config_hash!r}")
-    leaves, treedef = jax.tree_util.tree_flatten(template)
-    stored = blob.get("leaves", {})
-    if len(stored) != len(leaves):
-        raise CheckpointError(f"{path}: field 'leaves' has {len(stored)} arrays, the run state has {len(leaves)}")
-    out = []
-    for i, ref in enumerate(leaves):
-        x = np.asarray(stored[str(i)])
-        if x.shape != np.shape(ref):
-            raise CheckpointError(f"{path}: field 'leaves.{i}' has shape {x.shape}, expected {np.shape(ref)}")
-        out.append(jax.numpy.asarray(x, dtype=np.asarray(ref).dtype))
-    return jax.tree_util.tree_unflatten(treedef, out), meta
+    blob = codec.read(path, FORMAT, RETIRED)
+    meta = codec.json_field(path, blob, "meta")
+    if not isinstance(meta, dict) or meta.get("config_hash") != config_hash:
+        got = meta.get("config_hash") if isinstance(meta, dict) else None
+        raise CheckpointError(f"{path}: field 'config_hash' is {got!r}, expected {config_hash!r}")
+    return codec.restore(path, template, blob, "state"), meta

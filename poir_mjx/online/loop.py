@@ -44,6 +44,20 @@ class RunState:
     round: jax.Array  # finished rounds (environment and gradient steps follow from it)
 
 
+@dataclasses.dataclass(frozen=True)
+class RoundInputs:
+    """What every round and evaluation of a run reads; the arrays committed to the episode mesh."""
+
+    params: POIRParams  # the offline agent (its BC prior and reward world model never change)
+    off_x: jax.Array  # expert world-model inputs [s, a] (normalised)
+    off_y: jax.Array  # expert world-model targets s' - s (normalised)
+    deploy: EnvParams  # the deployment noise levels, one per collection episode [num_envs]
+    eval_keys: jax.Array  # one key per evaluation episode, the same at every evaluation
+    eval_params: EnvParams  # the deployment noise levels, one per evaluation episode
+    clip: float  # normalised states clipped to [-clip, clip] (0: no clipping)
+    optimizer: Any  # the world model's optax optimiser
+
+
 @dataclasses.dataclass
 class OnlineResult:
     params: POIRParams  # the fine-tuned agent (world model replaced)
@@ -127,79 +141,99 @@ class OnlineTrainer:
         """
         from tqdm import tqdm
 
-        agent, cfg = self.agent, self.agent.config.online
-        if params.wm is None:
-            raise ValueError("params.wm: online fine-tuning needs a world model (a 'poir' agent)")
-        opt = ens.make_optimizer(agent.config.train)
-        obs, act, nxt = (jnp.asarray(a, jax.tree_util.tree_leaves(params.wm)[0].dtype) for a in offline)
-        clip = agent.config.normalizer.clip if agent.config.normalize else 0.0
-        off_x, off_y = world_model_targets(params.obs_norm, params.act_norm, obs, act, nxt, clip)
-        if off_x.shape[0] < agent.config.train.batch_size:
-            raise ValueError(f"batch_size: {agent.config.train.batch_size} exceeds the {off_x.shape[0]} offline transitions")
-        n = cfg.num_envs
-        deploy = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(jnp.asarray(x), (n,)), env_params)
-        n_eval = eval_keys.shape[0]
-        eval_params = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(jnp.asarray(x), (n_eval,)), env_params)
-
-        state = self.init_state(params, key)
-        curve, rounds = [], []
+        inputs = self._prepare(params, offline, env_params, eval_keys)
         path = Path(checkpoint_path) if checkpoint_path is not None else None
-        if path is not None and path.exists():
-            state, meta = ock.load(path, state, config_hash)
-            curve, rounds = meta["curve"], meta["rounds"]
+        state, curve, rounds = self._resume(path, self.init_state(params, key), config_hash)
         resumed = int(state.round)
-        # committed, replicated inputs from the start: the compiled functions are not traced again in round 2
-        state, params, off_x, off_y = replicate((state, params, off_x, off_y))
-
-        def evaluate(st: RunState) -> dict:
-            t0 = time.perf_counter()
-            # the collector again (its transitions unused): one compilation when num_envs == n_eval
-            res, _ = run_sharded(self.collector, params.replace(wm=st.wm.params), eval_keys, eval_params)
-            res = jax.tree_util.tree_map(np.asarray, res)
-            k = int((res["first_success"] >= 0).sum())
-            return {**self.counters(st.round), "successes": k,
-                    "episodes": n_eval, "success_rate": k / n_eval, "diverged": int(res["diverged"].sum()),
-                    "wall_s": time.perf_counter() - t0}  # fmt: skip
-
-        def save():
-            if path is not None:
-                ock.save(path, state, {"config_hash": config_hash, "curve": curve, "rounds": rounds})
-
+        state = replicate(state)  # committed like the inputs: the compiled functions are not traced again in round 2
         if not curve:  # step 0: the offline model on the evaluation episodes
-            curve.append(evaluate(state))
-            save()
+            curve.append(self._evaluate(inputs, state))
+            self._checkpoint(path, state, config_hash, curve, rounds)
         bar = tqdm(total=self.num_rounds, initial=resumed, desc="online", unit="round", disable=not progress)
         for r in range(resumed, self.num_rounds):
-            t0 = time.perf_counter()
-            key, k_collect, k_train = jax.random.split(state.key, 3)
-            cur = params.replace(wm=state.wm.params)
-            outcome, (o, a, o2, v) = run_sharded(self.collector, cur, jax.random.split(k_collect, n), deploy)
-            flat = [x.reshape((-1,) + x.shape[2:]) for x in (o, a, o2, v)]
-            err_now = deployment_error(agent.wm_module, state.wm.params, params.obs_norm, params.act_norm, *flat, clip)
-            err_off = deployment_error(agent.wm_module, params.reward_wm, params.obs_norm, params.act_norm, *flat, clip)
-            buf = rb.add(state.buffer, *flat)
-            wm, losses, frac = finetune(agent.wm_module, opt, cfg, agent.config.train.batch_size,
-                                        self.grad_steps_per_round, state.wm, off_x, off_y, buf,
-                                        params.obs_norm, params.act_norm, state.round * self.grad_steps_per_round,
-                                        k_train, clip)  # fmt: skip
-            state = RunState(wm=wm, buffer=buf, key=key, round=state.round + 1)
-            first = np.asarray(outcome["first_success"])
-            log = {
-                "round": r + 1, **self.counters(state.round),
-                "collect_success_rate": float((first >= 0).mean()),
-                "valid_transitions": int(np.asarray(v).sum()),
-                "wm_error": float(np.mean(err_now)), "wm_error_offline": float(np.mean(err_off)),
-                "loss_last": float(np.mean(losses[-1])), "online_fraction": float(frac),
-                "wall_s": time.perf_counter() - t0,
-            }  # fmt: skip
+            state, log = self._round(inputs, state, r)
             rounds.append(log)
             if self.eval_after(r):
-                curve.append(evaluate(state))
-            save()
+                curve.append(self._evaluate(inputs, state))
+            self._checkpoint(path, state, config_hash, curve, rounds)
             bar.update(1)
             bar.set_postfix(success=f"{curve[-1]['success_rate']:.2f}", wm_err=f"{log['wm_error']:.4f}",
                             offline_err=f"{log['wm_error_offline']:.4f}")  # fmt: skip
             if on_round is not None:
                 on_round(r, log)
         bar.close()
-        return OnlineResult(params.replace(wm=state.wm.params), curve, rounds, resumed)
+        return OnlineResult(inputs.params.replace(wm=state.wm.params), curve, rounds, resumed)
+
+    # ---- the steps of a run ----------------------------------------------------------------------
+    def _prepare(self, params: POIRParams, offline, env_params: EnvParams, eval_keys: jax.Array) -> RoundInputs:
+        """Check the agent and data, build the expert world-model targets, broadcast the noise levels."""
+        agent = self.agent
+        if params.wm is None:
+            raise ValueError("params.wm: online fine-tuning needs a world model (a 'poir' agent)")
+        opt = ens.make_optimizer(agent.config.train)
+        obs, act, nxt = (jnp.asarray(a, jax.tree_util.tree_leaves(params.wm)[0].dtype) for a in offline)
+        clip = agent.config.normalizer.clip if agent.config.normalize else 0.0
+        off_x, off_y = world_model_targets(params.obs_norm, params.act_norm, obs, act, nxt, clip)
+        batch = agent.config.train.batch_size
+        if off_x.shape[0] < batch:
+            raise ValueError(f"batch_size: {batch} exceeds the {off_x.shape[0]} offline transitions")
+
+        def per_episode(n):
+            return jax.tree_util.tree_map(lambda x: jnp.broadcast_to(jnp.asarray(x), (n,)), env_params)
+
+        params, off_x, off_y = replicate((params, off_x, off_y))
+        return RoundInputs(params, off_x, off_y, per_episode(agent.config.online.num_envs),
+                           eval_keys, per_episode(eval_keys.shape[0]), clip, opt)  # fmt: skip
+
+    def _resume(self, path: Path | None, fresh: RunState, config_hash: str) -> tuple[RunState, list, list]:
+        """(run state, curve, rounds): from the checkpoint at `path` if there is one, else `fresh` and empty records."""
+        if path is not None and path.exists():
+            state, meta = ock.load(path, fresh, config_hash)
+            return state, meta["curve"], meta["rounds"]
+        return fresh, [], []
+
+    def _checkpoint(self, path: Path | None, state: RunState, config_hash: str, curve: list, rounds: list) -> None:
+        if path is not None:
+            ock.save(path, state, {"config_hash": config_hash, "curve": curve, "rounds": rounds})
+
+    def _evaluate(self, inputs: RoundInputs, st: RunState) -> dict:
+        """Success of the current world model over the evaluation episodes (the same keys every time)."""
+        t0 = time.perf_counter()
+        n_eval = inputs.eval_keys.shape[0]
+        # the collector again (its transitions unused): one compilation when num_envs == n_eval
+        cur = inputs.params.replace(wm=st.wm.params)
+        res, _ = run_sharded(self.collector, cur, inputs.eval_keys, inputs.eval_params)
+        res = jax.tree_util.tree_map(np.asarray, res)
+        k = int((res["first_success"] >= 0).sum())
+        return {**self.counters(st.round), "successes": k,
+                "episodes": n_eval, "success_rate": k / n_eval, "diverged": int(res["diverged"].sum()),
+                "wall_s": time.perf_counter() - t0}  # fmt: skip
+
+    def _round(self, inputs: RoundInputs, state: RunState, r: int) -> tuple[RunState, dict]:
+        """Round r (0-based): collect num_envs episodes, measure both world models on them, store them, train."""
+        t0 = time.perf_counter()
+        agent, params, clip = self.agent, inputs.params, inputs.clip
+        key, k_collect, k_train = jax.random.split(state.key, 3)
+        cur = params.replace(wm=state.wm.params)
+        n = agent.config.online.num_envs
+        outcome, (o, a, o2, v) = run_sharded(self.collector, cur, jax.random.split(k_collect, n), inputs.deploy)
+        flat = [x.reshape((-1,) + x.shape[2:]) for x in (o, a, o2, v)]
+        err_now = deployment_error(agent.wm_module, state.wm.params, params.obs_norm, params.act_norm, *flat, clip)
+        err_off = deployment_error(agent.wm_module, params.reward_wm, params.obs_norm, params.act_norm, *flat, clip)
+        buf = rb.add(state.buffer, *flat)
+        batch = agent.config.train.batch_size
+        wm, losses, frac = finetune(agent.wm_module, inputs.optimizer, agent.config.online, batch,
+                                    self.grad_steps_per_round, state.wm, inputs.off_x, inputs.off_y, buf,
+                                    params.obs_norm, params.act_norm, state.round * self.grad_steps_per_round,
+                                    k_train, clip)  # fmt: skip
+        state = RunState(wm=wm, buffer=buf, key=key, round=state.round + 1)
+        first = np.asarray(outcome["first_success"])
+        log = {
+            "round": r + 1, **self.counters(state.round),
+            "collect_success_rate": float((first >= 0).mean()),
+            "valid_transitions": int(np.asarray(v).sum()),
+            "wm_error": float(np.mean(err_now)), "wm_error_offline": float(np.mean(err_off)),
+            "loss_last": float(np.mean(losses[-1])), "online_fraction": float(frac),
+            "wall_s": time.perf_counter() - t0,
+        }  # fmt: skip
+        return state, log

@@ -1,13 +1,15 @@
 import dataclasses
+import re
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from poir_mjx import checkpoint_codec as codec
 from poir_mjx.core import checkpoint
 from poir_mjx.core.agent import POIR
-from poir_mjx.core.config import ConfigError, MLPConfig, PlannerConfig, POIRConfig, TrainConfig, from_dict, preset, to_dict
+from poir_mjx.core.config import MLPConfig, PlannerConfig, POIRConfig, TrainConfig
 from tests.core.toy import expert_data
 
 CFG = POIRConfig(
@@ -52,6 +54,23 @@ def test_mismatched_layout_names_the_field(saved):
         checkpoint.load(path, CFG, {"task": "lift"})
 
 
+def test_parameters_are_checked_by_name_and_shape(saved, tmp_path):
+    _, _, path = saved
+    blob = codec.read(path, checkpoint.FORMAT)
+    kernel = blob["params"]["bc"]["params"]["Dense_0"]["kernel"]
+    blob["params"]["bc"]["params"]["Dense_0"]["kernel"] = kernel[:, :1]
+    bad = codec.write(tmp_path / "narrow.ckpt", checkpoint.FORMAT, {k: v for k, v in blob.items() if k != "format"})
+    with pytest.raises(checkpoint.CheckpointError,
+                       match=rf"narrow\.ckpt: field 'params\.bc\.params\.Dense_0\.kernel' has shape \(2, 1, 8\), "
+                             rf"expected {re.escape(str(kernel.shape))}"):  # fmt: skip
+        checkpoint.load(bad)
+    blob["params"]["bc"]["params"]["Dense_0"]["kernel"] = kernel
+    del blob["params"]["obs_norm"]["std"]
+    bad = codec.write(tmp_path / "nostd.ckpt", checkpoint.FORMAT, {k: v for k, v in blob.items() if k != "format"})
+    with pytest.raises(checkpoint.CheckpointError, match=r"nostd\.ckpt: field 'params\.obs_norm\.std' is missing"):
+        checkpoint.load(bad)
+
+
 def test_garbage_file_is_a_clear_error(tmp_path):
     bad = tmp_path / "bad.ckpt"
     bad.write_bytes(b"not msgpack at all")
@@ -59,20 +78,3 @@ def test_garbage_file_is_a_clear_error(tmp_path):
         checkpoint.load(bad)
     with pytest.raises(checkpoint.CheckpointError, match="no such checkpoint"):
         checkpoint.load(tmp_path / "missing.ckpt")
-
-
-def test_presets_and_config_validation():
-    paper = preset("paper")
-    assert (paper.planner.num_trajectories, paper.planner.horizon, paper.planner.sigma, paper.ensemble_size) == (4000, 5, 0.2, 27)
-    assert (paper.bc.layers, paper.bc.width, paper.train.learning_rate, paper.train.batch_size) == (5, 300, 1e-4, 256)
-    assert from_dict(to_dict(preset("cpu-small"))) == preset("cpu-small")
-    with pytest.raises(ConfigError, match="preset"):
-        preset("huge")
-    with pytest.raises(ConfigError, match=r"planner\.reward"):
-        from_dict({"planner": {"reward": "gail"}})
-    with pytest.raises(ConfigError, match=r"planner\.horizon: expected an integer"):
-        from_dict({"planner": {"horizon": "5"}})
-    with pytest.raises(ConfigError, match=r"train\.learning_rate: must be >= 0"):
-        from_dict({"train": {"learning_rate": -1.0}})
-    with pytest.raises(ConfigError, match="unknown field"):
-        from_dict({"planer": {}})

@@ -89,12 +89,3 @@ def test_interrupted_run_resumes_to_the_same_result(setup, tmp_path):
     assert again.resumed_from_round == 4 and again.curve == resumed.curve
     with pytest.raises(CheckpointError, match="online.ckpt: field 'config_hash'"):
         trainer.run(params, offline, DEPLOY, eval_keys, jax.random.PRNGKey(1), checkpoint_path=ckpt, config_hash="other")
-
-
-def test_online_config_errors_name_the_field():
-    from poir_mjx.core.config import ConfigError
-
-    with pytest.raises(ConfigError, match="online.mix_max"):
-        dataclasses.replace(CFG, online=dataclasses.replace(CFG.online, mix_max=1.5)).validate()
-    with pytest.raises(ConfigError, match="online.num_envs"):
-        dataclasses.replace(CFG, online=dataclasses.replace(CFG.online, num_envs=0)).validate()

@@ -1,0 +1,97 @@
+"""The checkpoint codec: atomic writes, the format tag, restoring by name with every entry checked."""
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from flax import serialization, struct
+
+from poir_mjx import checkpoint_codec as codec
+from poir_mjx.checkpoint_codec import CheckpointError
+
+FMT = "test-codec/1"
+
+
+@struct.dataclass
+class Pair:
+    a: jnp.ndarray
+    b: jnp.ndarray
+
+
+@struct.dataclass
+class PairSwapped:  # the same names, declared in the other order (positional restoring would swap them)
+    b: jnp.ndarray
+    a: jnp.ndarray
+
+
+def _save(path, tree):
+    return codec.write(path, FMT, {"tree": codec.state_dict(tree), "note": '{"x": 1}'})
+
+
+def _load(path, template, **kw):
+    return codec.restore(path, template, codec.read(path, FMT), "tree", **kw)
+
+
+def test_reordered_dataclass_and_dict_restore_each_array_by_name(tmp_path):
+    saved = Pair(a=jnp.arange(3.0), b=jnp.arange(4, dtype=jnp.int32))
+    path = _save(tmp_path / "pair.ckpt", saved)
+    assert not list(tmp_path.glob(".*.tmp"))  # the atomic write left no temporary file
+    back = _load(path, PairSwapped(b=jnp.zeros(4, jnp.int32), a=jnp.zeros(3)))
+    assert isinstance(back, PairSwapped)
+    np.testing.assert_array_equal(back.a, [0.0, 1.0, 2.0])
+    np.testing.assert_array_equal(back.b, [0, 1, 2, 3])
+    assert back.b.dtype == jnp.int32
+    # a dict whose keys were inserted in another order
+    path = _save(tmp_path / "dict.ckpt", {"x": jnp.ones(2), "y": jnp.zeros((2, 2))})
+    back = _load(path, {"y": jnp.ones((2, 2)), "x": jnp.zeros(2)})
+    np.testing.assert_array_equal(back["x"], [1.0, 1.0])
+    np.testing.assert_array_equal(back["y"], np.zeros((2, 2)))
+    assert codec.json_field(path, codec.read(path, FMT), "note") == {"x": 1}
+
+
+TEMPLATE = {"net": {"w": jnp.zeros((2, 3)), "b": jnp.zeros(3)}, "step": jnp.zeros((), jnp.int32)}
+
+
+@pytest.mark.parametrize("stored, message", [
+    ({"net": {"w": np.zeros((2, 3), np.float32)}, "step": np.int32(0)}, r"bad\.ckpt: field 'tree\.net\.b' is missing"),
+    ({"net": {"w": np.zeros((2, 3), np.float32), "b": np.zeros(3, np.float32), "c": np.zeros(1)},
+      "step": np.int32(0)}, r"bad\.ckpt: field 'tree\.net\.c' is not expected"),
+    ({"net": {"w": np.zeros((3, 2), np.float32), "b": np.zeros(3, np.float32)}, "step": np.int32(0)},
+     r"bad\.ckpt: field 'tree\.net\.w' has shape \(3, 2\), expected \(2, 3\)"),
+    ({"net": {"w": np.zeros((2, 3), np.float32), "b": np.zeros(3, np.float32)}, "step": np.float32(0)},
+     r"bad\.ckpt: field 'tree\.step' has dtype float32, expected int32"),
+    ({"net": np.zeros(3, np.float32), "step": np.int32(0)},
+     r"bad\.ckpt: field 'tree\.net' is an array .*expected a mapping"),
+])  # fmt: skip
+def test_missing_extra_or_misshapen_entries_name_file_and_field(tmp_path, stored, message):
+    path = codec.write(tmp_path / "bad.ckpt", FMT, {"tree": stored})
+    with pytest.raises(CheckpointError, match=message) as e:
+        _load(path, TEMPLATE)
+    assert "\n" not in str(e.value)
+
+
+def test_float_dtypes_cast_only_when_asked(tmp_path):
+    path = _save(tmp_path / "f64.ckpt", {"w": np.arange(3, dtype=np.float64)})
+    with pytest.raises(CheckpointError, match="field 'tree.w' has dtype float64, expected float32"):
+        _load(path, {"w": jnp.zeros(3, jnp.float32)})
+    back = _load(path, {"w": jnp.zeros(3, jnp.float32)}, cast_floats=True)
+    assert back["w"].dtype == jnp.float32 and back["w"].tolist() == [0.0, 1.0, 2.0]
+
+
+def test_format_tag_and_unreadable_files(tmp_path):
+    path = _save(tmp_path / "a.ckpt", {"w": np.zeros(1)})
+    with pytest.raises(CheckpointError, match=r"a\.ckpt: field 'format' is 'test-codec/1', expected 'other/1'"):
+        codec.read(path, "other/1")
+    with pytest.raises(CheckpointError, match=r"a\.ckpt: format 'test-codec/1': delete it"):
+        codec.read(path, "test-codec/2", retired={FMT: "delete it"})
+    with pytest.raises(CheckpointError, match=r"a\.ckpt: field 'missing' is missing"):
+        codec.restore(path, {}, codec.read(path, FMT), "missing")
+    (tmp_path / "junk.ckpt").write_bytes(b"\x00not msgpack")
+    with pytest.raises(CheckpointError, match=r"junk\.ckpt: not a poir-mjx checkpoint"):
+        codec.read(tmp_path / "junk.ckpt", FMT)
+    (tmp_path / "list.ckpt").write_bytes(serialization.msgpack_serialize([1, 2]))
+    with pytest.raises(CheckpointError, match=r"list\.ckpt: not a poir-mjx checkpoint"):
+        codec.read(tmp_path / "list.ckpt", FMT)
+    with pytest.raises(CheckpointError, match="no such checkpoint file"):
+        codec.read(tmp_path / "none.ckpt", FMT)
+    with pytest.raises(CheckpointError, match="is a directory"):
+        codec.read(tmp_path, FMT)
