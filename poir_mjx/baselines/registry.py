@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 import importlib
 
-from poir_mjx.core.config import ConfigError, apply_overrides, to_dict
+from poir_mjx.core.config import ConfigError, apply_overrides
 
 
 @dataclasses.dataclass(frozen=True)
@@ -42,8 +42,11 @@ class Baseline:
             return cls(env, cfg)
         return cls(env, cfg, obs_size, act_size)
 
-    def config_dict(self, cfg) -> dict:
-        return to_dict(cfg)
+    @staticmethod
+    def schedule(cfg) -> tuple[int, int]:
+        """(total_env_steps, eval_every): top-level fields, or those of the config's ``loop`` (the off-policy ones)."""
+        src = getattr(cfg, "loop", cfg)
+        return src.total_env_steps, src.eval_every
 
 
 BASELINES: dict[str, Baseline] = {

@@ -55,10 +55,10 @@ def train_baseline(learner: Learner, env, expert: ExpertData, env_params, eval_k
     """
     from tqdm import tqdm
 
+    state = learner.init(key, expert, env_params)  # before policy_fn: a learner may size its policy from the data
     evaluator = make_evaluator(env, learner.policy_fn(), eval_steps)
     n_eval = eval_keys.shape[0]
     eval_params = jax.tree_util.tree_map(lambda x: np.broadcast_to(np.asarray(x), (n_eval,)), env_params)
-    state = learner.init(key, expert, env_params)
     curve: list[dict] = []
     path = Path(checkpoint_path) if checkpoint_path is not None else None
     if path is not None and path.exists():

@@ -51,18 +51,11 @@ def _mean(values) -> float:
 def _plot(lines, task: str, preset: str, path: Path) -> None:
     import matplotlib.pyplot as plt
 
-    from poir_mjx.eval.report import save_png
+    from poir_mjx.eval.report import label_curves, save_png
 
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(10, 3.5))
     for label, steps, rate, rew in lines:
         ax.plot(steps, rate, marker="o", label=label)
         ax2.plot(steps[1:], rew[1:], marker=".", label=label)
-    ax.set_xlabel("environment steps")
-    ax.set_ylabel("success rate (MJX)")
-    ax.set_ylim(-0.05, 1.05)
-    ax.set_title(f"{task}: baselines ({preset})")
-    ax.legend(fontsize=7)
-    ax2.set_xlabel("environment steps")
-    ax2.set_ylabel("imitation reward")
-    ax2.legend(fontsize=7)
+    label_curves(ax, ax2, "success rate (MJX)", f"{task}: baselines ({preset})", "imitation reward")
     save_png(fig, path)

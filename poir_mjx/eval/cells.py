@@ -111,7 +111,9 @@ def run_baseline_cells(b: CellBatch, tr, ckpt_dir: Path, progress: bool, on_cell
     cfg = b.cfg
     bcfg = baseline_config(cfg, b.method)
     env = make_env(b.task)
-    learner = get_baseline(b.method).make(env, bcfg, tr.obs.shape[1], tr.actions.shape[1])
+    baseline = get_baseline(b.method)
+    learner = baseline.make(env, bcfg, tr.obs.shape[1], tr.actions.shape[1])
+    total, every = baseline.schedule(bcfg)
     expert = expert_data(tr)
     for j, (s_i, s_a) in enumerate(b.grid):
         if read_cell(b.paths[j], b.chash):
@@ -120,7 +122,7 @@ def run_baseline_cells(b: CellBatch, tr, ckpt_dir: Path, progress: bool, on_cell
         t0 = time.perf_counter()
         ckpt = ckpt_dir / b.task / "baselines" / f"{_slug(b.method)}-{_cell_slug(b, j)}-{b.chash}.ckpt"
         res = train_baseline(learner, env, expert, make_params(s_i, s_a), b.cell_keys(j), cfg.max_steps,
-                             b.cell_key(j), total_env_steps=bcfg.total_env_steps, eval_every=bcfg.eval_every,
+                             b.cell_key(j), total_env_steps=total, eval_every=every,
                              env_steps_per_iteration=learner.env_steps_per_iteration, checkpoint_path=ckpt,
                              config_hash=b.chash, progress=progress)  # fmt: skip
         if cfg.simulator == "mjx":

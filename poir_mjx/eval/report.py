@@ -170,17 +170,23 @@ def write_learning_curves(cfg: SweepConfig, out: Path, task: str, digest: str) -
         ax.plot(steps, rate, marker="o", label=label)
         (ln,) = ax2.plot(r_steps, err, marker=".", label=f"{label}: fine-tuned")
         ax2.plot(r_steps, err_off, linestyle="--", color=ln.get_color(), label=f"{label}: offline model")
-    ax.set_xlabel("environment steps")
-    ax.set_ylabel("success rate")
-    ax.set_ylim(-0.05, 1.05)
-    ax.set_title(f"{task}: online fine-tuning ({cfg.preset})")
-    ax.legend(fontsize=7)
-    ax2.set_xlabel("environment steps")
-    ax2.set_ylabel("one-step error on new deployment data")
+    label_curves(ax, ax2, "success rate", f"{task}: online fine-tuning ({cfg.preset})",
+                 "one-step error on new deployment data")
     ax2.set_yscale("log")
-    ax2.legend(fontsize=7)
     save_png(fig, out / f"{task}-online.png")
     return "\n".join(md + rows) + "\n"
+
+
+def label_curves(ax, ax2, success_label: str, title: str, right_label: str) -> None:
+    """Axes of a learning-curve figure: success versus environment steps (left), a training quantity (right)."""
+    ax.set_xlabel("environment steps")
+    ax.set_ylabel(success_label)
+    ax.set_ylim(-0.05, 1.05)
+    ax.set_title(title)
+    ax.legend(fontsize=7)
+    ax2.set_xlabel("environment steps")
+    ax2.set_ylabel(right_label)
+    ax2.legend(fontsize=7)
 
 
 def save_png(fig, path: Path) -> None:
