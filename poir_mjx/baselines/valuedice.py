@@ -87,7 +87,7 @@ class ExpertSet(struct.PyTreeNode):
     obs: jax.Array  # [N, do], normalised
     act: jax.Array  # [N, da]
     next_obs: jax.Array  # [N, do]
-    initial: jax.Array  # [M, do], the demonstrations' first observations
+    initial: jax.Array  # [M, do], the initial-state term's states (every expert state, or the demonstrations' first)
 
 
 class VDState(struct.PyTreeNode):
