@@ -15,6 +15,7 @@ the absorbing state; it matters through the discriminator. The policy is trained
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -72,8 +73,8 @@ PRESETS = {
 
 class DACState(struct.PyTreeNode):
     sac: SACState
-    disc: object
-    disc_opt: object
+    disc: Any
+    disc_opt: Any
 
 
 class ExpertPairs(struct.PyTreeNode):

@@ -2,7 +2,8 @@
 
 One ``train(state, iterations)`` call is one compiled function: ``lax.scan`` over iterations, each one step of all
 ``num_envs`` environments (uniform random actions during warm-up, the stochastic policy after) written to the device
-replay, then ``updates_per_iteration`` gradient updates (``lax.scan``; none until ``warmup_steps`` environment steps).
+replay, then ``updates_per_iteration`` gradient updates (``lax.scan``; none until ``warmup_steps`` environment steps,
+whose update metrics are NaN).
 A method subclasses ``OffPolicyLearner`` and supplies its networks (``init_algo``), its expert data on the device
 (``prepare_expert``), exploration (``explore``), one update (``update``) and its reward on fresh transitions.
 """
@@ -99,6 +100,8 @@ def check_config(cfg, prefix: str = "", zero_ok: tuple[str, ...] = ("warmup_step
                 raise ConfigError(f"{name}: expected a finite number, got {v!r}")
             if v < 0:
                 raise ConfigError(f"{name}: must be >= 0, got {v}")
+    if isinstance(cfg, LoopConfig) and cfg.replay_capacity < cfg.num_envs:
+        raise ConfigError(f"{prefix}replay_capacity: {cfg.replay_capacity} holds not one step of {cfg.num_envs} envs")
 
 
 def check_unit(cfg, names: tuple[str, ...], prefix: str = "", open_top: bool = False) -> None:
@@ -204,8 +207,8 @@ class OffPolicyLearner:
             steps = st.env_steps + e
             shapes = jax.eval_shape(learn, st.algo, replay, st.expert, st.norm, k_upd)[1]
 
-            def skip(algo, *_):
-                return algo, jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
+            def skip(algo, *_):  # warm-up: no update, its metrics NaN
+                return algo, jax.tree_util.tree_map(lambda s: jnp.full(s.shape, jnp.nan, s.dtype), shapes)
 
             updating = steps >= loop.warmup_steps
             algo, metrics = jax.lax.cond(updating, learn, skip, st.algo, replay, st.expert, st.norm, k_upd)

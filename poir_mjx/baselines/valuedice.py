@@ -18,7 +18,7 @@ bootstraps through nu(s', pi(s')) like a truncated agent episode.
 from __future__ import annotations
 
 import dataclasses
-from typing import Literal
+from typing import Any, Literal
 
 import jax
 import jax.numpy as jnp
@@ -91,10 +91,10 @@ class ExpertSet(struct.PyTreeNode):
 
 
 class VDState(struct.PyTreeNode):
-    actor: object
-    nu: object
-    actor_opt: object
-    nu_opt: object
+    actor: Any
+    nu: Any
+    actor_opt: Any
+    nu_opt: Any
 
 
 def orthogonal_penalty(params) -> jax.Array:

@@ -49,6 +49,7 @@ def test_sqil_learns_the_toy(run):
     assert ended.sum() == STEPS // 8 // toy.HORIZON
     assert np.mean(metrics["episode_success"][ended][-5:]) > 0.5  # the stochastic policy succeeds too
     assert metrics["updating"][0] == 0 and metrics["updating"][-1] == 1  # warm-up, then updates
+    assert np.isnan(metrics["critic_loss"][0]) and np.all(np.isfinite(metrics["critic_loss"][30:]))
 
 
 def test_config_errors_name_the_field():
@@ -60,3 +61,21 @@ def test_config_errors_name_the_field():
         dataclasses.replace(CFG, sac=dataclasses.replace(CFG.sac, discount=1.0)).validate()
     with pytest.raises(ConfigError, match="loop.num_envs"):
         dataclasses.replace(CFG, loop=dataclasses.replace(CFG.loop, num_envs=0)).validate()
+    with pytest.raises(ConfigError, match="loop.replay_capacity"):
+        dataclasses.replace(CFG, loop=dataclasses.replace(CFG.loop, replay_capacity=4)).validate()
+    with pytest.raises(ConfigError, match="sac.learn_alpha: expected a boolean"):
+        dataclasses.replace(CFG, sac=dataclasses.replace(CFG.sac, learn_alpha=1)).validate()
+
+
+def test_training_resumes_from_a_saved_state():
+    """train(s, 32) == train(restore(train(s, 16)), 16): the TrainState pytree is all a checkpoint needs."""
+    learner = SQIL(toy.ENV, CFG, 2, 2)
+    s0 = learner.init(jax.random.PRNGKey(1), toy.expert_data(), toy.PARAMS)
+    whole, _ = learner.train(s0, 32)  # warm-up ends after iteration 30: the last two iterations update
+    half, _ = learner.train(s0, 16)
+    leaves, treedef = jax.tree_util.tree_flatten(half)
+    resumed, _ = learner.train(jax.tree_util.tree_unflatten(treedef, [np.array(x) for x in leaves]), 16)
+    assert int(resumed.env_steps) == 32 * 8
+    names = [jax.tree_util.keystr(p) for p, _ in jax.tree_util.tree_flatten_with_path(whole)[0]]
+    for name, a, b in zip(names, jax.tree_util.tree_leaves(whole), jax.tree_util.tree_leaves(resumed), strict=True):
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-5, atol=1e-6, err_msg=name)
