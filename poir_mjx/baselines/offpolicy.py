@@ -127,6 +127,11 @@ class OffPolicyLearner:
         self.vec = vec_env.VecEnv(env, loop.num_envs, loop.episode_steps)
         self._train = jax.jit(self._train_impl, static_argnums=1)
 
+    @property
+    def env_steps_per_iteration(self) -> int:
+        """Environment steps one ``train`` iteration takes: a step of every environment."""
+        return self.loop.num_envs
+
     # ---- hooks -------------------------------------------------------------------------------------------------
     def make_normalizer(self, expert: ExpertData) -> Normalizer:
         return expert_normalizer(expert, False, 0.0)
