@@ -32,7 +32,7 @@ COMMANDS: tuple[Command, ...] = (
     Command("bench env", o.BenchEnv, "poir_mjx.bench.env:run"),
     Command("bench planner", o.BenchPlanner, "poir_mjx.bench.planner:run"),
     Command("bench e2e", o.BenchE2E, "poir_mjx.bench.e2e:run"),
-    Command("video", "poir_mjx.video:VideoConfig", "poir_mjx.video.command:run"),
+    Command("video", "poir_mjx.video:VideoConfig", "poir_mjx.video.command:run", "poir_mjx.video.render:check_gl"),
 )
 # Subcommand groups: (help line, the subcommand run when none is named or None).
 GROUPS = {
@@ -57,6 +57,15 @@ def main(argv=None) -> int:
         print(f"error: {parsed}", file=sys.stderr)
         return 2
     command, opts = parsed
+    if command.check is not None:
+        from poir_mjx.cli.parser import _load
+        from poir_mjx.optional import MissingDependencyError
+
+        try:
+            _load(command.check)()
+        except MissingDependencyError as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 2
 
     from poir_mjx.core.checkpoint import CheckpointError
     from poir_mjx.core.config import ConfigError

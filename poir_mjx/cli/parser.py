@@ -31,6 +31,9 @@ class Command:
     run: Callable | str
     """Function taking the options (or "module:function", imported when the subcommand runs); its int
     return value is the exit status (anything else: 0)."""
+    check: Callable | str | None = None
+    """Optional function (or "module:function") called first, before the command line imports the simulator:
+    a missing system library (e.g. OpenGL for `video`) is then one line (MissingDependencyError), exit 2."""
 
     def options_type(self):
         return _load(self.options)

@@ -12,7 +12,11 @@ BASE = dataclasses.replace(preset("cpu-small"), online=dataclasses.replace(prese
 
 def test_registry_names_and_unknown_method():
     assert set(METHODS) == {"BC", "EBC", "POIR-L2", "POIR-DRIL", "POIR-MOREL", "POIR-noprior",
-                            "POIR-L2 online", "POIR-DRIL online", "POIR-MOREL online"}  # fmt: skip
+                            "POIR-L2 online", "POIR-DRIL online", "POIR-MOREL online",
+                            "DAC", "ValueDICE", "SQIL", "PPO+DRIL"}  # fmt: skip
+    assert {n for n, m in METHODS.items() if m.is_baseline} == {"DAC", "ValueDICE", "SQIL", "PPO+DRIL"}
+    assert all(METHODS[n].has_curve for n in METHODS if METHODS[n].is_baseline or METHODS[n].online)
+    assert not any(METHODS[n].has_curve for n in ("BC", "EBC", "POIR-DRIL"))
     m = get_method("POIR-MOREL online")
     assert m.online and m.reward == "morel" and m.agent_kind == "poir" and m.act == "plan"
     with pytest.raises(UnknownMethodError, match="method: unknown method 'GAIL'; expected one of BC, EBC"):

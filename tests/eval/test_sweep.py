@@ -5,6 +5,7 @@ import json
 import pytest
 
 from poir_mjx import cli
+from poir_mjx.eval import cells
 from poir_mjx.eval import sweep as sw
 from poir_mjx.optional import has_robosuite
 
@@ -72,8 +73,8 @@ def test_interrupted_sweep_resumes_to_the_same_tables(dirs, monkeypatch):
     assert "Simulator: MJX (mujoco-mjx" in (full / "lift.md").read_text() and rec["simulator"].startswith("MJX")
 
     # Kill the sweep after its first batch (seed 0): seed 0's cells exist, seed 1's do not.
-    real = sw.run_episodes
-    monkeypatch.setattr(sw, "run_episodes", dies_on_call(real, 2))
+    real = cells.run_episodes
+    monkeypatch.setattr(cells, "run_episodes", dies_on_call(real, 2))
     with pytest.raises(KeyboardInterrupt):
         run(root, cfg_path)
     out = root / "results" / "tiny"
@@ -82,7 +83,7 @@ def test_interrupted_sweep_resumes_to_the_same_tables(dirs, monkeypatch):
     assert not list(out.rglob("*.tmp"))
     done = (out / "cells/lift/EBC/si=0.02_sa=0_seed=0.json").stat().st_mtime_ns
 
-    monkeypatch.setattr(sw, "run_episodes", real)
+    monkeypatch.setattr(cells, "run_episodes", real)
     run(root, cfg_path)  # the same command again
     assert (out / "cells/lift/EBC/si=0.02_sa=0_seed=0.json").stat().st_mtime_ns == done  # not recomputed
     assert (out / "lift.csv").read_text() == (full / "lift.csv").read_text()
