@@ -17,7 +17,8 @@ import jax.numpy as jnp
 
 from poir_mjx.baselines import replay as rp
 from poir_mjx.baselines.learner import ExpertData
-from poir_mjx.baselines.offpolicy import LoopConfig, Normalizer, OffPolicyLearner, check_config, check_unit
+from poir_mjx.baselines.offpolicy import CPU_SMALL_LOOP, LoopConfig, Normalizer, OffPolicyLearner
+from poir_mjx.baselines.offpolicy import check_config, check_unit
 from poir_mjx.baselines.offpolicy import expert_normalizer
 from poir_mjx.baselines.sac import SAC, Batch, SACConfig
 from poir_mjx.core.config import ConfigError
@@ -50,8 +51,7 @@ PRESETS = {
     "paper": Config(),
     # seconds-to-minutes on 2 CPU cores: small networks, small replay, few environments
     "cpu-small": Config(
-        loop=LoopConfig(num_envs=8, episode_steps=400, total_env_steps=20_000, eval_every=10_000, warmup_steps=1_000,
-                        updates_per_iteration=8, batch_size=128, replay_capacity=20_000),  # fmt: skip
+        loop=CPU_SMALL_LOOP,
         sac=SACConfig(actor_layers=2, actor_width=64, critic_layers=2, critic_width=64, learning_rate=1e-4),
     ),
 }

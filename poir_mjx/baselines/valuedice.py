@@ -29,7 +29,8 @@ from flax import struct
 from poir_mjx.baselines import policy
 from poir_mjx.baselines import replay as rp
 from poir_mjx.baselines.learner import ExpertData
-from poir_mjx.baselines.offpolicy import LoopConfig, Normalizer, OffPolicyLearner, check_config, check_unit
+from poir_mjx.baselines.offpolicy import CPU_SMALL_LOOP, LoopConfig, Normalizer, OffPolicyLearner
+from poir_mjx.baselines.offpolicy import check_config, check_unit
 from poir_mjx.baselines.offpolicy import expert_normalizer, wmean
 
 
@@ -76,8 +77,7 @@ PRESETS = {
     # seconds-to-minutes on 2 CPU cores: small networks, small replay, few environments; nu at the official code's
     # 1e-3 (on the toy, tests/baselines, 1e-3 with the paper's policy rate 1e-5 learned reliably)
     "cpu-small": Config(
-        loop=LoopConfig(num_envs=8, episode_steps=400, total_env_steps=20_000, eval_every=10_000, warmup_steps=1_000,
-                        updates_per_iteration=8, batch_size=128, replay_capacity=20_000),  # fmt: skip
+        loop=CPU_SMALL_LOOP,
         actor_width=64, nu_width=64, nu_learning_rate=1e-3,
     ),
 }
