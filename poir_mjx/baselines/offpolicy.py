@@ -52,8 +52,9 @@ class LoopConfig:
 
 # The cpu-small loop shared by SQIL, DAC and ValueDICE: seconds-to-minutes on 2 CPU cores (few environments, a small
 # replay, 8 updates per iteration of 8 environment steps).
-CPU_SMALL_LOOP = LoopConfig(num_envs=8, episode_steps=400, total_env_steps=20_000, eval_every=10_000, warmup_steps=1_000,
-                            updates_per_iteration=8, batch_size=128, replay_capacity=20_000)  # fmt: skip
+CPU_SMALL_LOOP = LoopConfig(num_envs=8, episode_steps=400, total_env_steps=20_000, eval_every=10_000,
+                            warmup_steps=1_000, updates_per_iteration=8, batch_size=128,
+                            replay_capacity=20_000)  # fmt: skip
 
 
 class Normalizer(struct.PyTreeNode):
