@@ -7,6 +7,9 @@ structure with ``flax.serialization.from_state_dict``, after checking every name
 against the template, so a reordered dataclass or dict loads each array into its own place and a
 missing, extra or misshapen entry is a ``CheckpointError`` naming the file and the field's path.
 
+Pytree node types flax does not know (e.g. MJX's ``Data`` inside an environment state that a baseline
+checkpoints) are registered with flax on first use, keyed by their JAX key-path names (dataclass fields).
+
 (flax rather than orbax: one file per checkpoint, synchronous, no extra dependency; orbax's
 directory layout and async managers serve multi-host sharded arrays, which these small states are not.)
 """
@@ -37,7 +40,41 @@ def write(path: str | Path, fmt: str, fields: Mapping[str, Any]) -> Path:
 
 def state_dict(tree: Any) -> Any:
     """A pytree as a name-keyed state dict with host (numpy) leaves, ready for ``write``."""
-    return serialization.to_state_dict(jax.tree_util.tree_map(np.asarray, tree))
+    tree = jax.tree_util.tree_map(np.asarray, tree)
+    _register_unknown_nodes(tree)
+    return serialization.to_state_dict(tree)
+
+
+def _children(node: Any) -> tuple[list, Any]:
+    """One level of `node`: [(name, child)] by JAX key path, and the treedef to rebuild it."""
+    flat, treedef = jax.tree_util.tree_flatten_with_path(node, is_leaf=lambda x: x is not node)
+    return [(_key_name(path[0]), child) for path, child in flat], treedef
+
+
+def _key_name(key: Any) -> str:
+    for attr in ("name", "key", "idx"):  # GetAttrKey, DictKey / FlattenedIndexKey, SequenceKey
+        if hasattr(key, attr):
+            return str(getattr(key, attr))
+    return str(key)
+
+
+def _node_to_state(node: Any) -> dict:
+    return {name: serialization.to_state_dict(child) for name, child in _children(node)[0]}
+
+
+def _node_from_state(node: Any, state: dict) -> Any:
+    named, treedef = _children(node)
+    return jax.tree_util.tree_unflatten(treedef, [serialization.from_state_dict(c, state[n]) for n, c in named])
+
+
+def _register_unknown_nodes(tree: Any) -> None:
+    """Register with flax every pytree node type in `tree` that it would otherwise store as a raw object."""
+    if tree is None or jax.tree_util.treedef_is_leaf(jax.tree_util.tree_structure(tree)):
+        return
+    if serialization.to_state_dict(tree) is tree:  # flax returns objects of unknown types unchanged
+        serialization.register_serialization_state(type(tree), _node_to_state, _node_from_state, override=True)
+    for _, child in _children(tree)[0]:
+        _register_unknown_nodes(child)
 
 
 def read(path: str | Path, fmt: str, retired: Mapping[str, str] | None = None) -> dict:
@@ -84,6 +121,7 @@ def restore(path: str | Path, template: Any, blob: Mapping[str, Any], name: str,
     """
     if name not in blob:
         raise CheckpointError(f"{path}: field '{name}' is missing")
+    _register_unknown_nodes(template)
     want = serialization.to_state_dict(template)
     checked = _check(str(path), want, blob[name], name, cast_floats)
     return serialization.from_state_dict(template, checked)

@@ -1,5 +1,9 @@
 """The checkpoint codec: atomic writes, the format tag, restoring by name with every entry checked."""
 
+import dataclasses
+import functools
+
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -46,6 +50,34 @@ def test_reordered_dataclass_and_dict_restore_each_array_by_name(tmp_path):
     np.testing.assert_array_equal(back["x"], [1.0, 1.0])
     np.testing.assert_array_equal(back["y"], np.zeros((2, 2)))
     assert codec.json_field(path, codec.read(path, FMT), "note") == {"x": 1}
+
+
+@functools.partial(jax.tree_util.register_dataclass, data_fields=["x", "y"], meta_fields=["tag"])
+@dataclasses.dataclass
+class JaxOnlyNode:  # a pytree node jax knows and flax does not (as MJX's Data is)
+    x: jnp.ndarray
+    y: jnp.ndarray | None
+    tag: str
+
+
+def test_pytree_nodes_flax_does_not_know_restore_by_field_name(tmp_path):
+    """An environment state with MJX's Data inside (a baseline's checkpoint) stores field names, not objects."""
+    import mujoco
+    from mujoco import mjx
+
+    model = mjx.put_model(mujoco.MjModel.from_xml_string("<mujoco><worldbody><body><freejoint/>"
+                                                         "<geom size='0.1'/></body></worldbody></mujoco>"))  # fmt: skip
+    data = mjx.make_data(model)
+    saved = {"env": (JaxOnlyNode(jnp.arange(3.0), None, "a"), data.replace(qpos=data.qpos + 1.0))}
+    stored = codec.state_dict(saved)
+    assert set(stored["env"]["0"]) == {"x", "y"} and "qpos" in stored["env"]["1"]
+    path = _save(tmp_path / "env.ckpt", saved)
+    template = {"env": (JaxOnlyNode(jnp.zeros(3), None, "a"), data)}
+    back = _load(path, template)
+    assert isinstance(back["env"][0], JaxOnlyNode) and back["env"][0].tag == "a" and back["env"][0].y is None
+    np.testing.assert_array_equal(back["env"][0].x, [0.0, 1.0, 2.0])
+    assert isinstance(back["env"][1], type(data))
+    np.testing.assert_array_equal(back["env"][1].qpos, np.asarray(data.qpos) + 1.0)
 
 
 TEMPLATE = {"net": {"w": jnp.zeros((2, 3)), "b": jnp.zeros(3)}, "step": jnp.zeros((), jnp.int32)}
