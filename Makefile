@@ -125,7 +125,9 @@ eval: $(STAMP)
 	@test -n "$(CKPT)" || { echo "usage: make eval CKPT=checkpoints/<task>/<file>.ckpt [EVAL_ARGS='--sigma-init 0.02 0.2 --episodes 10']"; exit 2; }
 	$(PY) -m poir_mjx.cli eval --ckpt "$(CKPT)" $(EVAL_ARGS)
 
+# cpu-ablate-demos-si0.3 trains on scripted demos recorded at sigma_init 0.3 (wider coverage than make demos' 0.02).
 ablations: $(STAMP)
+	$(PY) -m poir_mjx.cli demos generate --tasks lift --sigma-init 0.3 --out data/demos-si0.3
 	for f in experiments/ablations/*.json; do $(PY) -m poir_mjx.cli sweep --config $$f || exit $$?; done
 	$(PY) -m poir_mjx.cli compare results/cpu-ablate-* --out results/ablations.md
 

@@ -1,6 +1,6 @@
 """One table across sweep runs (ablations): ``python -m poir_mjx.cli compare results/cpu-ablate-* --out F``.
 
-Each row is a (run, method): the run's config overrides, then the success rate and Wilson interval
+Each row is a (run, method): the run's config overrides and demonstration files, then the success rate and Wilson interval
 per (task, sigma_init, sigma_action) cell, read from the run's cell records (the cells must exist:
 run the sweeps first). Runs with the same grid, episodes and seeds share their episode keys, so
 their rows are paired comparisons.
@@ -44,7 +44,8 @@ def compare(runs: list[Path]) -> str:
             cell = by_method.setdefault(rec["method"], {}).setdefault(col, [0, 0])
             cell[0] += rec["successes"]
             cell[1] += rec["episodes"]
-        overrides = ", ".join(f"{k}={v}" for k, v in sorted(cfg.get("overrides", {}).items())) or "-"
+        changed = {**cfg.get("overrides", {}), **{f"demo_files.{t}": f for t, f in cfg.get("demo_files", {}).items()}}
+        overrides = ", ".join(f"{k}={v}" for k, v in sorted(changed.items())) or "-"
         for method, cells in by_method.items():
             rows.append((run.name, overrides, method, cells))
     cols.sort()
