@@ -71,8 +71,9 @@ def _register_unknown_nodes(tree: Any) -> None:
     """Register with flax every pytree node type in `tree` that it would otherwise store as a raw object."""
     if tree is None or jax.tree_util.treedef_is_leaf(jax.tree_util.tree_structure(tree)):
         return
-    if serialization.to_state_dict(tree) is tree:  # flax returns objects of unknown types unchanged
-        serialization.register_serialization_state(type(tree), _node_to_state, _node_from_state, override=True)
+    namedtuple = isinstance(tree, tuple) and hasattr(tree, "_fields")  # flax handles these as one kind
+    if not (namedtuple or serialization.is_serializable(tree)):
+        serialization.register_serialization_state(type(tree), _node_to_state, _node_from_state)
     for _, child in _children(tree)[0]:
         _register_unknown_nodes(child)
 

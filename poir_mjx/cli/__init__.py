@@ -57,12 +57,12 @@ def main(argv=None) -> int:
         print(f"error: {parsed}", file=sys.stderr)
         return 2
     command, opts = parsed
-    if command.check is not None:
-        from poir_mjx.cli.parser import _load
+    check = command.check_function()
+    if check is not None:
         from poir_mjx.optional import MissingDependencyError
 
         try:
-            _load(command.check)()
+            check()
         except MissingDependencyError as e:
             print(f"error: {e}", file=sys.stderr)
             return 2

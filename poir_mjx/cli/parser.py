@@ -41,6 +41,9 @@ class Command:
     def function(self) -> Callable:
         return _load(self.run)
 
+    def check_function(self) -> Callable | None:
+        return None if self.check is None else _load(self.check)
+
 
 def _union(members: list):
     return members[0] if len(members) == 1 else Union[tuple(members)]

@@ -1,9 +1,9 @@
 """One table across sweep runs (ablations): ``python -m poir_mjx.cli compare results/cpu-ablate-* --out F``.
 
-Each row is a (run, method): the run's config overrides and demonstration files, then the success rate and Wilson interval
-per (task, sigma_init, sigma_action) cell, read from the run's cell records (the cells must exist:
-run the sweeps first). Runs with the same grid, episodes and seeds share their episode keys, so
-their rows are paired comparisons.
+Each row is a (run, method): the run's config overrides and demonstration files, then the success
+rate and Wilson interval per (task, sigma_init, sigma_action) cell, read from the run's cell
+records (the cells must exist: run the sweeps first). Runs with the same grid, episodes and seeds
+share their episode keys, so their rows are paired comparisons.
 """
 
 from __future__ import annotations
