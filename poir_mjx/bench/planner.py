@@ -39,6 +39,8 @@ def random_params(agent: POIR, expert_states: int, key) -> POIRParams:
         obs_norm=Normalizer(jnp.zeros(OBS), jnp.ones(OBS)),
         act_norm=Normalizer(jnp.zeros(ACT), jnp.ones(ACT)),
         expert_states=jax.random.normal(k3, (expert_states, OBS)),
+        dril_level=jnp.zeros(()),
+        morel_level=jnp.zeros(()),
     )
 
 

@@ -39,6 +39,8 @@ class POIRParams:
     obs_norm: Normalizer
     act_norm: Normalizer
     expert_states: jax.Array  # normalised expert states searched by the L2 reward [E, ds]
+    dril_level: jax.Array  # the expert data's own DRIL disagreement at planner.disagreement_quantile, []
+    morel_level: jax.Array  # the same for MOREL's reward model on the expert transitions (0 without one), []
 
 
 @dataclasses.dataclass(frozen=True)
@@ -92,22 +94,40 @@ class POIR:
         epochs = cfg.train.epochs if epochs is None else epochs
         history = {"bc": [], "wm": []}
 
-        def run(name, module, k_init, x, y):
+        def run(name, module, k_init, x, y, weights=None):
             st = ens.init_train_state(ens.init_ensemble(module, k_init, cfg.ensemble_size, x.shape[-1]), opt)
             for e in range(epochs):
-                st, loss = ens.train_epoch(module, opt, cfg.train.batch_size, st, x, y, jax.random.fold_in(k_loop, e))
+                st, loss = ens.train_epoch(module, opt, cfg.train.batch_size, st, x, y, jax.random.fold_in(k_loop, e),
+                                           weights)  # fmt: skip
                 history[name].append(np.asarray(loss))
                 if callback is not None:
                     callback(name, e, np.asarray(loss))
             return st.params
 
-        bc = run("bc", self.bc_module, k_bc, s, a)
+        if cfg.bc_space == "raw":
+            bc = run("bc", self.bc_module, k_bc, obs, act)
+        else:
+            weights = act_norm.std**2 if cfg.bc_space == "weighted" else None
+            bc = run("bc", self.bc_module, k_bc, s, a, weights)
         wm = run("wm", self.wm_module, k_wm, jnp.concatenate([s, a], -1), s2 - s) if train_world_model else None
         expert = s
         if cfg.planner.l2_approx_size:
             expert = rewards.approximate_subset(s, cfg.planner.l2_approx_size, jax.random.fold_in(key, 7))
-        params = POIRParams(bc=bc, wm=wm, reward_wm=wm, obs_norm=obs_norm, act_norm=act_norm, expert_states=expert)
+        zero = jnp.zeros((), jnp.float32)
+        params = POIRParams(bc=bc, wm=wm, reward_wm=wm, obs_norm=obs_norm, act_norm=act_norm, expert_states=expert,
+                            dril_level=zero, morel_level=zero)  # fmt: skip
+        params = params.replace(**self.disagreement_levels(params, s, a))
         return params, {k: np.array(v) for k, v in history.items()}
+
+    def disagreement_levels(self, params: POIRParams, s: jax.Array, a: jax.Array) -> dict:
+        """The expert data's own DRIL and MOREL disagreement (normalised expert states `s` and actions `a`) at
+        ``planner.disagreement_quantile``: what the "excess" rewards subtract."""
+        q = self.config.planner.disagreement_quantile
+        levels = {"dril_level": rewards.disagreement_level(self._dril, params, s, q)}
+        if params.reward_wm is not None:
+            morel = lambda p, x: self._morel(p, x[:, : self.obs_size], x[:, self.obs_size :])  # noqa: E731
+            levels["morel_level"] = rewards.disagreement_level(morel, params, jnp.concatenate([s, a], -1), q)
+        return levels
 
     # ------------------------------------------------------------------ policies
     def _clip(self, s_norm):
@@ -126,13 +146,37 @@ class POIR:
     def _to_env_action(self, params, a_norm):
         return jnp.clip(params.act_norm.inverse(a_norm), self.config.action_low, self.config.action_high)
 
+    # The BC ensemble in the planner's spaces (normalised states in, normalised actions out), whatever
+    # space it was trained in (config.bc_space).
+    def _bc_all(self, params: POIRParams, s_norm: jax.Array) -> jax.Array:
+        """Every head on the same states: [..., ds] -> [K, ..., da]."""
+        if self.config.bc_space != "raw":
+            return ens.apply_all(self.bc_module, params.bc, s_norm)
+        return params.act_norm(ens.apply_all(self.bc_module, params.bc, params.obs_norm.inverse(s_norm)))
+
+    def _bc_each(self, params: POIRParams, s_norm: jax.Array) -> jax.Array:
+        """Head k on its own states: [K, ..., ds] -> [K, ..., da]."""
+        if self.config.bc_space != "raw":
+            return ens.apply_each(self.bc_module, params.bc, s_norm)
+        return params.act_norm(ens.apply_each(self.bc_module, params.bc, params.obs_norm.inverse(s_norm)))
+
+    def _bc_env_actions(self, params: POIRParams, obs: jax.Array) -> jax.Array:
+        """Every head's action for raw observations, in env units (unclipped): [K, da]."""
+        if self.config.bc_space == "raw":
+            return ens.apply_all(self.bc_module, params.bc, jnp.asarray(obs, jnp.float32))
+        return params.act_norm.inverse(ens.apply_all(self.bc_module, params.bc, self.normalize_obs(params, obs)))
+
+    def _act_clip(self, a):
+        return jnp.clip(a, self.config.action_low, self.config.action_high)
+
     def bc_action(self, params: POIRParams, obs: jax.Array) -> jax.Array:
         """Plain BC: the first network of the ensemble."""
-        s = self.normalize_obs(params, obs)
-        return self._to_env_action(params, self.bc_module.apply(jax.tree_util.tree_map(lambda p: p[0], params.bc), s))
+        return self._act_clip(self._bc_env_actions(params, obs)[0])
 
     def ebc_action(self, params: POIRParams, obs: jax.Array) -> jax.Array:
-        """Ensemble BC: the mean of the K networks' actions."""
+        """Ensemble BC (for a POIR agent: its prior alone): the mean of the K networks' actions."""
+        if not self.config.normalize or self.config.bc_space == "raw":
+            return self._act_clip(self._bc_env_actions(params, obs).mean(0))
         a = ens.apply_all(self.bc_module, params.bc, self.normalize_obs(params, obs)).mean(0)
         return self._to_env_action(params, a)
 
@@ -142,6 +186,15 @@ class POIR:
         k = self.config.ensemble_size
         return k, -(-self.config.planner.num_trajectories // k)
 
+    def _dril(self, params: POIRParams, s: jax.Array) -> jax.Array:
+        return rewards.dril_reward(self._bc_all(params, s))
+
+    def _morel(self, params: POIRParams, s: jax.Array, a: jax.Array) -> jax.Array:
+        """MOREL on the predicted next states as the rollout sees them (clipped when normalizer.clip > 0)."""
+        deltas = ens.apply_all(self.wm_module, params.reward_wm, jnp.concatenate([s, a], -1))
+        clipped = self.config.normalize and self.config.normalizer.clip > 0
+        return rewards.morel_reward(self._clip(s + deltas) if clipped else deltas)
+
     def trajectory_rewards(self, params: POIRParams, s: jax.Array, a: jax.Array) -> jax.Array:
         """r_IL(s, a) for states/actions laid out [K, M, .] (normalised) -> [K, M]."""
         pc = self.config.planner
@@ -149,9 +202,10 @@ class POIR:
             flat = s.reshape(-1, s.shape[-1])
             return rewards.l2_reward(flat, params.expert_states, pc.l2_chunk).reshape(s.shape[:-1])
         if pc.reward == "dril":
-            return rewards.dril_reward(ens.apply_all(self.bc_module, params.bc, s))
-        preds = ens.apply_all(self.wm_module, params.reward_wm, jnp.concatenate([s, a], -1))
-        return rewards.morel_reward(preds)
+            r, level = self._dril(params, s), params.dril_level
+        else:
+            r, level = self._morel(params, s, a), params.morel_level
+        return rewards.excess(r, level) if pc.disagreement == "excess" else r
 
     def rollouts(self, params: POIRParams, obs: jax.Array, key: jax.Array):
         """Imagined trajectories: returns (returns [K, M] with -inf on padding, first actions [K, M, da])."""
@@ -166,7 +220,7 @@ class POIR:
             s, ret, first = carry
             t, kt = xs
             if pc.use_prior:
-                prior = ens.apply_each(self.bc_module, params.bc, s)
+                prior = self._bc_each(params, s)
                 a = prior + pc.sigma * jax.random.normal(kt, prior.shape, jnp.float32)
             else:
                 a = jax.random.uniform(kt, (k, m, self.act_size), jnp.float32, minval=lo, maxval=hi)
@@ -182,11 +236,27 @@ class POIR:
         ret = jnp.where(n < pc.num_trajectories, ret, -jnp.inf)
         return ret, first
 
+    def real_trajectories(self, ret: jax.Array, first: jax.Array) -> tuple[jax.Array, jax.Array]:
+        """The N real trajectories of a [K, M] layout, in the order n = 0..N-1 (padding cells dropped):
+        (returns [N], first actions [N, da])."""
+        n = self.config.planner.num_trajectories
+        return ret.T.reshape(-1)[:n], first.transpose(1, 0, 2).reshape(-1, self.act_size)[:n]
+
     def plan(self, params: POIRParams, obs: jax.Array, key: jax.Array) -> jax.Array:
         """SelectAction: the mean first action of the top-k imagined trajectories, in env units (float32)."""
         ret, first = self.rollouts(params, obs, key)
-        a = top_k_mean(ret.reshape(-1), first.reshape(-1, self.act_size), self.config.planner.top_k)
-        return self._to_env_action(params, a)
+        return self._to_env_action(params, self.select(ret, first, key))
+
+    def select(self, ret: jax.Array, first: jax.Array, key: jax.Array) -> jax.Array:
+        """The mean first action (normalised) of the top_k chosen among the real trajectories of a [K, M]
+        layout: the k best returns, or ("random") k drawn uniformly, from a key stream of its own so
+        that the rollouts are those the same key's top-k planner scores."""
+        pc = self.config.planner
+        ret, first = self.real_trajectories(ret, first)
+        if pc.selection == "random":
+            pick = jax.random.choice(jax.random.fold_in(key, 0x5E1EC7), pc.num_trajectories, (pc.top_k,), replace=False)
+            return first[pick].mean(0)
+        return top_k_mean(ret, first, pc.top_k)
 
 
 def top_k_mean(returns: jax.Array, actions: jax.Array, k: int) -> jax.Array:

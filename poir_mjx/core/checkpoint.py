@@ -24,7 +24,7 @@ from poir_mjx.core.agent import POIR, POIRParams
 from poir_mjx.core.config import ConfigError, POIRConfig, from_dict, to_dict
 from poir_mjx.core.normalizer import Normalizer
 
-FORMAT = "poir-mjx-checkpoint/1"
+FORMAT = "poir-mjx-checkpoint/2"  # 2: the expert data's disagreement levels
 
 
 def save(path: str | Path, agent: POIR, params: POIRParams, layout: dict[str, Any]) -> Path:
@@ -88,7 +88,9 @@ def params_template(agent: POIR, stored: Any = None) -> POIRParams:
     rows = (np.shape(stored.get("expert_states", 0)) or (0,))[0]
     return POIRParams(bc=nets(agent.bc_module, do), wm=wm("wm"), reward_wm=wm("reward_wm"),
                       obs_norm=Normalizer(vec(do), vec(do)), act_norm=Normalizer(vec(da), vec(da)),
-                      expert_states=jax.ShapeDtypeStruct((rows, do), jnp.float32))  # fmt: skip
+                      expert_states=jax.ShapeDtypeStruct((rows, do), jnp.float32),
+                      dril_level=jax.ShapeDtypeStruct((), jnp.float32),
+                      morel_level=jax.ShapeDtypeStruct((), jnp.float32))  # fmt: skip
 
 
 def _first_difference(a, b, prefix=""):

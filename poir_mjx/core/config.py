@@ -63,6 +63,16 @@ class PlannerConfig:
     algorithm as printed, r(s^_t, a~_t) for t = 1..H, whose first term is the same for every
     trajectory (all returns tie at H = 1) and which never scores the last predicted state. MOREL
     always scores (s^_t, a~_t): its disagreement is about the transition a~_t starts."""
+    selection: Literal["top_k", "random"] = "top_k"
+    """How the top_k trajectories are chosen: "top_k" (the paper: the k largest returns) or "random"
+    (a control: k drawn uniformly among the N real trajectories, the returns ignored), which separates
+    what the prior's noise does from what the reward's ranking does."""
+    disagreement: Literal["raw", "excess"] = "raw"
+    """DRIL / MOREL rewards: "raw" (the paper: minus the ensemble's disagreement) or "excess" (minus the
+    disagreement beyond the expert data's own level, its `disagreement_quantile` quantile on the expert
+    transitions, as the DRIL paper's clipped cost: states as certain as the expert's tie)."""
+    disagreement_quantile: float = 0.98
+    """The quantile of the expert data's own disagreement that "excess" subtracts (DRIL paper: 0.98)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -124,6 +134,13 @@ class POIRConfig:
     """MPPI-style planner."""
     normalize: bool = True
     """Normalise observations and actions with the expert data's mean/std (POIR: yes; BC/EBC: no)."""
+    bc_space: Literal["normalized", "weighted", "raw"] = "raw"
+    """The spaces POIR's BC prior is trained in (the planner converts to and from its normalised
+    spaces): "normalized" (the paper: normalised states to normalised actions, every action dimension
+    weighing the same in the loss, the gripper one seventh), "weighted" (the same, the loss weighted by
+    each action dimension's variance: the squared error in action units) or "raw" (environment units in
+    and out: exactly EBC's ensemble, the same weights for the same seed). Measured in
+    docs/results-prior.md; without normalisation (BC, EBC) all three are the same."""
     normalizer: NormalizerConfig = NormalizerConfig()
     """Std floors and clipping of the normalisation (used when normalize is true)."""
     action_low: float = -1.0
@@ -176,6 +193,8 @@ def _validate(cfg, prefix):
             raise ConfigError(f"{prefix}updates_per_env_step: must be > 0, got {cfg.updates_per_env_step}")
     if isinstance(cfg, PlannerConfig) and cfg.top_k > cfg.num_trajectories:
         raise ConfigError(f"{prefix}top_k: {cfg.top_k} exceeds num_trajectories {cfg.num_trajectories}")
+    if isinstance(cfg, PlannerConfig) and not 0 < cfg.disagreement_quantile <= 1:
+        raise ConfigError(f"{prefix}disagreement_quantile: must be in (0, 1], got {cfg.disagreement_quantile}")
 
 
 def to_dict(cfg) -> dict:

@@ -61,7 +61,9 @@ class TrainState(NamedTuple):
     opt_state: Any
 
 
+@functools.lru_cache(maxsize=None)
 def make_optimizer(cfg: TrainConfig) -> optax.GradientTransformation:
+    """Adam for `cfg`; one object per config, so ``train_epoch`` (static in it) compiles once per shape."""
     return optax.adam(cfg.learning_rate, b1=cfg.beta1, b2=cfg.beta2)
 
 
@@ -70,9 +72,12 @@ def init_train_state(params, optimizer) -> TrainState:
 
 
 @functools.partial(jax.jit, static_argnames=("module", "optimizer", "batch_size"))
-def train_epoch(module, optimizer, batch_size: int, state: TrainState, x, y, key):
-    """One epoch of MSE regression x -> y for every member (own shuffle each); returns (state, mean loss [K])."""
+def train_epoch(module, optimizer, batch_size: int, state: TrainState, x, y, key, weights=None):
+    """One epoch of MSE regression x -> y for every member (own shuffle each); returns (state, mean loss [K]).
+
+    weights [out]: each output dimension's weight in the squared error (None: all 1)."""
     x, y = jnp.asarray(x, jnp.float32), jnp.asarray(y, jnp.float32)
+    w = jnp.ones(y.shape[-1], jnp.float32) if weights is None else jnp.asarray(weights, jnp.float32)
     k = ensemble_size(state.params)
     n = x.shape[0]
     if n < batch_size:
@@ -82,7 +87,7 @@ def train_epoch(module, optimizer, batch_size: int, state: TrainState, x, y, key
     perms = perms[:, : steps * batch_size].reshape(k, steps, batch_size).transpose(1, 0, 2)
 
     def loss_fn(p, xb, yb):
-        return jnp.mean(jnp.sum((module.apply(p, xb) - yb) ** 2, -1))
+        return jnp.mean(jnp.sum(w * (module.apply(p, xb) - yb) ** 2, -1))
 
     def member_step(p, o, idx):
         loss, g = jax.value_and_grad(loss_fn)(p, x[idx], y[idx])

@@ -28,9 +28,10 @@ class UnknownMethodError(ValueError):
 class Method:
     name: str
     agent_kind: str  # "policy" (BC ensemble, no normalisation), "poir" (normalised BC + world model) or "baseline"
-    act: str  # "bc", "ebc", "plan" or "learned" (a baseline's own policy)
+    act: str  # "bc", "ebc" (for a "poir" agent: its prior alone), "plan" or "learned" (a baseline's own policy)
     reward: str | None = None
     use_prior: bool = True
+    selection: str = "top_k"  # planner.selection: "random" is the control without the reward's ranking
     online: bool = False  # fine-tune the world model on deployment data before the evaluation
     description: str = ""
 
@@ -50,13 +51,17 @@ class Method:
             base = offline_config(base)
         if self.agent_kind == "policy":
             return dataclasses.replace(base, normalize=False)
-        planner = dataclasses.replace(base.planner, reward=self.reward, use_prior=self.use_prior)
+        planner = base.planner
+        if self.reward is not None:
+            planner = dataclasses.replace(planner, reward=self.reward, use_prior=self.use_prior, selection=self.selection)
         return dataclasses.replace(base, normalize=True, planner=planner)
 
     def training_config(self, base: POIRConfig) -> POIRConfig:
-        """What determines the offline weights (planner and online settings do not): the checkpoint key."""
+        """What determines the offline weights (how the planner uses them and online settings do not): the
+        checkpoint key."""
         cfg = offline_config(self.agent_config(base))
-        return dataclasses.replace(cfg, planner=dataclasses.replace(base.planner, reward="dril", use_prior=True))
+        planner = dataclasses.replace(base.planner, reward="dril", use_prior=True, selection="top_k", disagreement="raw")
+        return dataclasses.replace(cfg, planner=planner)
 
     def policy_fn(self, agent: POIR) -> Callable:
         """(params, obs_vector, key) -> action."""
@@ -77,6 +82,9 @@ METHODS: dict[str, Method] = {
         Method("POIR-MOREL", "poir", "plan", "morel", description="planner, reward: world-model disagreement"),
         Method("POIR-noprior", "poir", "plan", "dril", use_prior=False,
                description="ablation: uniform candidate actions instead of the BC prior"),  # fmt: skip
+        Method("POIR-prior", "poir", "ebc", description="control: POIR's BC prior alone (mean of its heads, no planning)"),
+        Method("POIR-random", "poir", "plan", "dril", selection="random",
+               description="control: the planner's top-k drawn uniformly among its trajectories (noise, no ranking)"),
         *(Method(f"POIR-{r.upper()} online", "poir", "plan", r, online=True,
                  description=f"POIR-{r.upper()} after online world-model fine-tuning in the cell's perturbed environment")
           for r in ("l2", "dril", "morel")),  # fmt: skip

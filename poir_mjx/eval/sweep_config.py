@@ -25,7 +25,8 @@ class SweepConfig:
     tasks: tuple[str, ...] = ("lift",)
     """Tasks to evaluate."""
     methods: tuple[str, ...] = ("EBC", "POIR-DRIL")
-    """Methods from the registry (BC, EBC, POIR-L2, POIR-DRIL, POIR-MOREL, POIR-noprior)."""
+    """Methods from the registry (poir_mjx/eval/methods.py: BC, EBC, POIR-L2, POIR-DRIL, POIR-MOREL, the
+    controls POIR-noprior, POIR-prior and POIR-random, the online variants and the baselines)."""
     sigma_init: tuple[float, ...] = (0.02, 0.2, 0.4)
     """Initial arm-joint noise levels."""
     sigma_action: tuple[float, ...] = (0.0,)

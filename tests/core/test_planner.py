@@ -16,6 +16,7 @@ SMALL = POIRConfig(
     world_model=MLPConfig(layers=2, width=32),
     train=TrainConfig(epochs=60, batch_size=64, learning_rate=3e-3),
     planner=PlannerConfig(num_trajectories=64, horizon=3, sigma=1.0, top_k=4, reward="l2"),
+    bc_space="normalized",  # the paper's prior; tests/core/test_prior.py covers the others
 )
 
 

@@ -11,7 +11,7 @@ BASE = dataclasses.replace(preset("cpu-small"), online=dataclasses.replace(prese
 
 
 def test_registry_names_and_unknown_method():
-    assert set(METHODS) == {"BC", "EBC", "POIR-L2", "POIR-DRIL", "POIR-MOREL", "POIR-noprior",
+    assert set(METHODS) == {"BC", "EBC", "POIR-L2", "POIR-DRIL", "POIR-MOREL", "POIR-noprior", "POIR-prior", "POIR-random",
                             "POIR-L2 online", "POIR-DRIL online", "POIR-MOREL online",
                             "DAC", "ValueDICE", "SQIL", "PPO+DRIL"}  # fmt: skip
     assert {n for n, m in METHODS.items() if m.is_baseline} == {"DAC", "ValueDICE", "SQIL", "PPO+DRIL"}
@@ -26,7 +26,7 @@ def test_registry_names_and_unknown_method():
 @pytest.mark.parametrize("name, normalize, reward, use_prior", [
     ("BC", False, "dril", True), ("EBC", False, "dril", True),
     ("POIR-L2", True, "l2", True), ("POIR-MOREL", True, "morel", True), ("POIR-noprior", True, "dril", False),
-    ("POIR-DRIL online", True, "dril", True),
+    ("POIR-DRIL online", True, "dril", True), ("POIR-prior", True, "dril", True), ("POIR-random", True, "dril", True),
 ])  # fmt: skip
 def test_agent_config_sets_normalisation_and_planner(name, normalize, reward, use_prior):
     m = get_method(name)
@@ -56,8 +56,19 @@ class _FakeAgent:
         return ("plan", p, o, k)
 
 
+def test_controls_use_the_poir_agent_and_only_change_how_it_acts():
+    prior, rand = get_method("POIR-prior"), get_method("POIR-random")
+    assert prior.agent_kind == rand.agent_kind == "poir" and prior.act == "ebc" and rand.act == "plan"
+    assert rand.agent_config(BASE).planner.selection == "random"
+    assert get_method("POIR-DRIL").agent_config(BASE).planner.selection == "top_k"
+    assert rand.training_config(BASE) == prior.training_config(BASE) == get_method("POIR-DRIL").training_config(BASE)
+    excess = dataclasses.replace(BASE, planner=dataclasses.replace(BASE.planner, disagreement="excess"))
+    assert get_method("POIR-DRIL").training_config(excess) == get_method("POIR-DRIL").training_config(BASE)
+    assert get_method("POIR-DRIL").agent_config(excess).planner.disagreement == "excess"
+
+
 @pytest.mark.parametrize("name, expect", [
-    ("BC", ("bc", "P", "O")), ("EBC", ("ebc", "P", "O")),
+    ("BC", ("bc", "P", "O")), ("EBC", ("ebc", "P", "O")), ("POIR-prior", ("ebc", "P", "O")),
     ("POIR-DRIL", ("plan", "P", "O", "K")), ("POIR-L2 online", ("plan", "P", "O", "K")),
 ])  # fmt: skip
 def test_policy_fn_calls_the_methods_action(name, expect):
