@@ -104,7 +104,29 @@ def _task_table(cfg: SweepConfig, task: str, table: dict) -> tuple[str, str]:
                 row.extend([f"{c['k'] / c['n']:.4f}", f"{c['ci'][0]:.4f}", f"{c['ci'][1]:.4f}"])
         md.append(f"| {m} | " + " | ".join(cells) + " |")
         csv.append(m + "," + ",".join(row))
-    return "\n".join(md) + "\n", "\n".join(csv) + "\n"
+    return "\n".join(md) + "\n" + _versus_table(cfg, table, cols), "\n".join(csv) + "\n"
+
+
+def _versus_table(cfg: SweepConfig, table: dict, cols: list, reference: str = "EBC") -> str:
+    """Each method's successes minus the reference's on the same (paired) episodes, with the two-sided
+    Fisher exact p of the two counts; empty without the reference or another method."""
+    others = [m for m in cfg.methods if m != reference]
+    if reference not in cfg.methods or not others:
+        return ""
+    from poir_mjx.eval.episodes import agreement_p_value
+
+    md = ["", f"Versus {reference} on the same episodes: difference in successes (two-sided Fisher exact p).", "",
+          "| method | " + " | ".join(_col(si, sa, cfg) for si, sa in cols) + " |", "|---|" + "---|" * len(cols)]
+    for m in others:
+        cells = []
+        for si, sa in cols:
+            c, r = table.get((m, si, sa)), table.get((reference, si, sa))
+            if c is None or r is None:
+                cells.append("-")
+            else:
+                cells.append(f"{c['k'] - r['k']:+d} (p {agreement_p_value(c['k'], c['n'], r['k'], r['n']):.2g})")
+        md.append(f"| {m} | " + " | ".join(cells) + " |")
+    return "\n".join(md) + "\n"
 
 
 def _plot_task(cfg: SweepConfig, task: str, table: dict, path: Path) -> None:

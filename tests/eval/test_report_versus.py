@@ -1,0 +1,19 @@
+"""The sweep report's paired comparison with EBC (poir_mjx/eval/report.py)."""
+
+from scipy.stats import fisher_exact
+
+from poir_mjx.eval.report import _versus_table
+from poir_mjx.eval.sweep_config import SweepConfig
+
+
+def test_versus_table_gives_differences_and_fisher_p():
+    cfg = SweepConfig(name="t", methods=("EBC", "POIR-DRIL", "POIR-prior"), sigma_init=(0.02, 0.3))
+    cols = [(0.02, 0.0), (0.3, 0.0)]
+    table = {("EBC", 0.02, 0.0): {"k": 40, "n": 50}, ("EBC", 0.3, 0.0): {"k": 10, "n": 50},
+             ("POIR-DRIL", 0.02, 0.0): {"k": 30, "n": 50}, ("POIR-DRIL", 0.3, 0.0): {"k": 25, "n": 50},
+             ("POIR-prior", 0.02, 0.0): {"k": 40, "n": 50}}  # fmt: skip
+    md = _versus_table(cfg, table, cols)
+    p = fisher_exact([[25, 25], [10, 40]]).pvalue
+    assert f"| POIR-DRIL | -10 (p {fisher_exact([[30, 20], [40, 10]]).pvalue:.2g}) | +15 (p {p:.2g}) |" in md
+    assert "| POIR-prior | +0 (p 1) | - |" in md
+    assert _versus_table(SweepConfig(name="t", methods=("POIR-DRIL", "BC")), table, cols) == ""
