@@ -1,90 +1,26 @@
-"""Evaluation in robosuite's own simulator (the reference), with the same agent choosing the actions.
+"""Episodes in robosuite's own simulator (the reference), with the same agent choosing the actions.
 
-Episodes are spread over worker processes, each stepping its share of robosuite environments
-(MuJoCo C, robosuite's OSC_POSE controller); at every control step the main process gathers all
-observations and calls the compiled, batched policy once (``jit(vmap(policy_fn))``), so the agent
-code and its per-episode, per-step keys are those of the MJX evaluator (``rollout/episode.py``).
+Episodes are spread over worker processes (``eval/robosuite_pool.py``), each stepping its share of
+robosuite environments (MuJoCo C, robosuite's OSC_POSE controller); at every control step the main
+process calls the compiled, batched policy (``jit(vmap(policy_fn))``) on the gathered observations,
+so the agent code and its per-episode, per-step keys are those of the MJX evaluator
+(``rollout/episode.py``). With ``overlap`` the workers form two groups: one group's actions are
+computed while the other's environments step, so planning and physics run at the same time.
 Per episode: robosuite's reset noise on the arm's joints is ``sigma_init`` (Gaussian), Gaussian
 noise of std ``sigma_action`` is added to every action, and robosuite draws the rest of the reset
-(object pose, Lift's cube size) from a generator seeded by the episode's key. An episode whose
-physics stops being finite is marked diverged and frozen, as in MJX.
+(object pose, Lift's cube size) from a generator seeded by the episode's key. An episode stops
+stepping once it succeeds (the success is counted) or its physics stops being finite (diverged).
 """
 
 from __future__ import annotations
-
-import os
-import pickle
-import subprocess
-import sys
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from poir_mjx.optional import require_robosuite
+from poir_mjx.eval.robosuite_pool import RobosuitePool
 
-
-class RobosuitePool:
-    """`workers` processes (``python -m poir_mjx.eval.robosuite_worker``) with `envs_per_worker` robosuite
-    environments each, spoken to over pipes; a context manager. Plain subprocesses rather than
-    multiprocessing: nothing of the calling program (jax's threads, an unguarded __main__) is copied."""
-
-    def __init__(self, task: str, workers: int, envs_per_worker: int):
-        require_robosuite("evaluating in robosuite (simulator: robosuite)")
-        self.size, self.per = workers * envs_per_worker, envs_per_worker
-        cmd = [sys.executable, "-m", "poir_mjx.eval.robosuite_worker", task, str(envs_per_worker)]
-        env = {**os.environ, "JAX_PLATFORMS": "cpu", "OMP_NUM_THREADS": "1"}
-        self.procs = [subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env) for _ in range(workers)]
-
-    def _exchange(self, messages):
-        def dead(p):
-            return RuntimeError(f"robosuite worker exited with status {p.wait()} (its error is printed above)")
-
-        for p, m in zip(self.procs, messages):
-            try:
-                pickle.dump(m, p.stdin)
-                p.stdin.flush()
-            except (BrokenPipeError, OSError):
-                raise dead(p) from None
-        replies = []
-        for p in self.procs:
-            try:
-                replies.append(pickle.load(p.stdout))
-            except EOFError:
-                raise dead(p) from None
-        return tuple(np.concatenate(parts) for parts in zip(*replies))
-
-    def reset(self, episodes: list[tuple[int, float, float]]):
-        """Start up to `size` episodes (seed, sigma_init, sigma_action); returns (obs [size, d], success [size])."""
-        per = [episodes[w * self.per : (w + 1) * self.per] for w in range(len(self.procs))]
-        obs, success, _ = self._exchange([("reset", p) for p in per])
-        return obs, success
-
-    def step(self, actions: np.ndarray, stop: np.ndarray | None = None):
-        """One control step of every running episode, after ending those flagged in `stop` [size];
-        returns (obs, success, diverged) [size]."""
-        stop = np.zeros(self.size, bool) if stop is None else stop
-        sl = [slice(w * self.per, (w + 1) * self.per) for w in range(len(self.procs))]
-        return self._exchange([("step", actions[s], stop[s]) for s in sl])
-
-    def close(self):
-        for p in self.procs:
-            try:
-                pickle.dump(("close",), p.stdin)
-                p.stdin.close()
-            except (BrokenPipeError, OSError):
-                pass
-        for p in self.procs:
-            try:
-                p.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                p.kill()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
+__all__ = ["RobosuitePool", "episode_streams", "evaluate", "collect", "run"]
 
 
 def episode_streams(keys: jax.Array, steps: int):
@@ -96,13 +32,29 @@ def episode_streams(keys: jax.Array, steps: int):
 
 
 def evaluate(task: str, policy_fn, params, keys: jax.Array, sigma_init, sigma_action, steps: int,
-             workers: int = 2, envs_per_worker: int = 16, progress: bool = True) -> dict[str, np.ndarray]:  # fmt: skip
+             workers: int = 2, envs_per_worker: int = 16, progress: bool = True,
+             overlap: bool = True) -> dict[str, np.ndarray]:  # fmt: skip
     """Run len(keys) episodes of `steps` control steps in robosuite; the results of ``rollout.sharding.run_batch``.
 
     keys: one PRNG key per episode (raw uint32 [B, 2]); sigma_init / sigma_action: [B].
-    first_success counts control steps from 1, as the MJX environment does (-1: never). Episodes
-    stop stepping once they succeed (the success is already counted), so a wave ends early.
+    first_success counts control steps from 1, as the MJX environment does (-1: never).
     """
+    return run(task, policy_fn, params, keys, sigma_init, sigma_action, steps, workers, envs_per_worker,
+               record=False, overlap=overlap, progress=progress)[0]  # fmt: skip
+
+
+def collect(task: str, policy_fn, params, keys: jax.Array, sigma_init, sigma_action, steps: int,
+            workers: int = 2, envs_per_worker: int = 16, progress: bool = False, overlap: bool = True):  # fmt: skip
+    """Episodes as ``evaluate`` runs them, with their transitions: (outcome, (obs, action, next_obs, valid)),
+    each [B, steps, ...] as the MJX collector (``online/loop.make_collector``) returns them. The action is
+    the policy's (before the environment's action noise); valid is False from the step after an
+    episode's success on, on its diverging step and after it."""
+    return run(task, policy_fn, params, keys, sigma_init, sigma_action, steps, workers, envs_per_worker,
+               record=True, overlap=overlap, progress=progress)  # fmt: skip
+
+
+def run(task, policy_fn, params, keys, sigma_init, sigma_action, steps, workers, envs_per_worker, *,
+        record: bool, overlap: bool, progress: bool):  # fmt: skip
     from tqdm import tqdm
 
     keys = jnp.asarray(keys)
@@ -112,26 +64,82 @@ def evaluate(task: str, policy_fn, params, keys: jax.Array, sigma_init, sigma_ac
     seeds, step_keys = episode_streams(keys, steps)
     envs_per_worker = max(1, min(envs_per_worker, -(-n // workers)))
     workers = max(1, min(workers, -(-n // envs_per_worker)))
-    first = np.full(n, -1, np.int64)
-    diverged = np.zeros(n, bool)
+    out = _Episodes(n, steps, record)
     act = jax.jit(jax.vmap(policy_fn, in_axes=(None, 0, 0)))
     bar = tqdm(total=n, desc=f"robosuite {task}", unit="ep", disable=not progress)
     with RobosuitePool(task, workers, envs_per_worker) as pool:
+        groups = pool.groups(2 if overlap else 1)
         for start in range(0, n, pool.size):
             idx = np.arange(start, min(start + pool.size, n))
-            m = len(idx)
             obs, _ = pool.reset([(int(seeds[i]), float(si[i]), float(sa[i])) for i in idx])
-            rows = np.concatenate([idx, np.full(pool.size - m, idx[0])])  # a fixed batch: one compilation
-            for t in range(steps):
-                # An episode that has succeeded or diverged is settled: its environment stops stepping.
-                settled = np.concatenate([(first[idx] >= 0) | diverged[idx], np.ones(pool.size - m, bool)])
-                if settled.all():
-                    break
-                a = np.asarray(act(params, jnp.asarray(obs), step_keys[rows, t]))
-                obs, success, div = pool.step(a, settled)
-                new = success[:m] & (first[idx] < 0) & ~diverged[idx]
-                first[idx[new]] = t + 1
-                diverged[idx] |= div[:m]
-            bar.update(m)
+            # padding slots repeat the first episode (a fixed batch: one compilation) and never count
+            rows = np.concatenate([idx, np.full(pool.size - len(idx), idx[0])])
+            real = np.arange(pool.size) < len(idx)
+            _wave(pool, groups, act, params, obs, rows, real, step_keys, steps, out)
+            bar.update(len(idx))
     bar.close()
-    return {"first_success": first, "diverged": diverged, "steps": np.full(n, steps)}
+    result = {"first_success": out.first, "diverged": out.diverged, "steps": np.full(n, steps)}
+    return result, out.transitions()
+
+
+class _Episodes:
+    """What the episodes have done so far: first success, divergence and (if recorded) transitions."""
+
+    def __init__(self, n: int, steps: int, record: bool):
+        self.first, self.diverged = np.full(n, -1, np.int64), np.zeros(n, bool)
+        self.n, self.steps, self.record = n, steps, record
+        self.obs = self.act = self.next_obs = None
+        self.valid = np.zeros((n, steps), bool)
+
+    def settled(self, rows, real):
+        return ~real | (self.first[rows] >= 0) | self.diverged[rows]
+
+    def sent(self, rows, live, t, obs, action):
+        if not self.record:
+            return
+        if self.obs is None:
+            self.obs = np.zeros((self.n, self.steps, obs.shape[1]), np.float32)
+            self.next_obs = np.zeros_like(self.obs)
+            self.act = np.zeros((self.n, self.steps, action.shape[1]), np.float32)
+        self.obs[rows[live], t], self.act[rows[live], t] = obs[live], action[live]
+
+    def answered(self, rows, live, t, obs, success, div):
+        r = rows[live]
+        new = success[live] & (self.first[r] < 0)
+        self.first[r[new]] = t + 1
+        self.diverged[r[div[live]]] = True
+        if self.record:
+            self.valid[r, t] = ~div[live]
+            self.next_obs[r, t] = obs[live]
+
+    def transitions(self):
+        if not self.record:
+            return None
+        if self.obs is None:  # no step was taken (every episode settled at reset)
+            return None
+        return self.obs, self.act, self.next_obs, self.valid
+
+
+def _wave(pool, groups, act, params, obs, rows, real, step_keys, steps, out: _Episodes) -> None:
+    """One wave of episodes to the end: each group in turn receives its last step's reply, then has its
+    next actions computed and sent, while the other group's environments are still stepping."""
+    in_flight = [None] * len(groups)  # per group: (t, live mask) of the step sent and not yet answered
+    t_next = [0] * len(groups)
+    while True:
+        busy = False
+        for g, (wids, sl) in enumerate(groups):
+            if in_flight[g] is not None:
+                t, live = in_flight[g]
+                o2, success, div = pool.receive(wids)
+                out.answered(rows[sl], live, t, o2, success, div)
+                obs[sl], in_flight[g] = o2, None
+            settled = out.settled(rows[sl], real[sl])
+            t = t_next[g]
+            if t >= steps or settled.all():
+                continue
+            a = np.asarray(act(params, jnp.asarray(obs[sl]), step_keys[rows[sl], t]))
+            pool.send_step(wids, a, settled)
+            out.sent(rows[sl], ~settled, t, obs[sl], a)
+            in_flight[g], t_next[g], busy = (t, ~settled), t + 1, True
+        if not busy:
+            return
