@@ -118,6 +118,10 @@ class OnlineConfig:
     """Gradient steps between increments (paper: 100)."""
     mix_max: float = 0.5
     """Cap on the online fraction (paper: 0.5)."""
+    simulator: Literal["sweep", "mjx", "robosuite"] = "sweep"
+    """Where the deployment episodes are collected: "mjx" (vectorised, one compiled function per round:
+    the GPU path), "robosuite" (robosuite's workers, the planner batched across the running episodes)
+    or "sweep" (the sweep's own simulator). Evaluations run in the sweep's simulator either way."""
 
 
 @dataclasses.dataclass(frozen=True)

@@ -85,7 +85,9 @@ def run_online_cells(b: CellBatch, agent: POIR, params, offline: tuple, ckpt_dir
                      on_cell: Callable[[int], None]) -> None:  # fmt: skip
     """Each noise cell is its own deployment environment: fine-tune there (resumable), evaluate on the cell's own
     episode keys (the offline cell's keys: a paired comparison). offline: the expert (obs, actions, next_obs)."""
-    trainer = _online_trainer(b.task, agent, b.cfg.max_steps)
+    where = agent.config.online.simulator
+    trainer = _online_trainer(b.task, agent, b.cfg.max_steps, b.cfg.simulator if where == "sweep" else where,
+                              b.cfg.simulator, b.cfg.workers)  # fmt: skip
     for j, (s_i, s_a) in enumerate(b.grid):
         if read_cell(b.paths[j], b.chash):
             on_cell(b.cfg.episodes)
@@ -151,7 +153,7 @@ def _cell_slug(b: CellBatch, j: int) -> str:
 
 
 @functools.lru_cache(maxsize=None)
-def _online_trainer(task: str, agent: POIR, steps: int):
+def _online_trainer(task: str, agent: POIR, steps: int, collect_in: str, evaluate_in: str, workers: int):
     from poir_mjx.online.loop import OnlineTrainer
 
-    return OnlineTrainer(make_env(task), agent, steps)
+    return OnlineTrainer(make_env(task), agent, steps, task, collect_in, evaluate_in, workers)

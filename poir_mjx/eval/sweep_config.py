@@ -47,7 +47,8 @@ class SweepConfig:
     simulator: str = "mjx"
     """Where the evaluation episodes run: "mjx" (vectorised, one compiled rollout: the GPU path) or
     "robosuite" (the reference: robosuite's own environment and controller in `workers` processes,
-    the agent's calls batched across them; needs robosuite; online methods fine-tune in MJX only)."""
+    the agent's calls batched across them; needs robosuite; online methods collect where
+    `online.simulator` says, by default here too)."""
     workers: int = 2
     """robosuite worker processes when simulator is "robosuite" (about one per CPU core)."""
     device: str = "any"
@@ -120,8 +121,6 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
         raise ConfigError(f"{path}: field 'demo_simulator' must be \"robosuite\" or \"mjx\", got {cfg.demo_simulator!r}")
     if cfg.simulator not in ("mjx", "robosuite"):
         raise ConfigError(f"{path}: field 'simulator' must be \"mjx\" or \"robosuite\", got {cfg.simulator!r}")
-    if cfg.simulator == "robosuite" and any(get_method(m).online for m in cfg.methods):
-        raise ConfigError(f"{path}: field 'simulator': online methods fine-tune and evaluate in MJX; use \"mjx\"")
     if cfg.device not in ("any", "cpu", "gpu"):
         raise ConfigError(f"{path}: field 'device' must be \"any\", \"cpu\" or \"gpu\", got {cfg.device!r}")
     for fld in ("episodes", "max_steps", "num_demos", "demo_batch", "workers"):

@@ -78,11 +78,18 @@ def make_collector(env, policy_fn, steps: int):
 
 @dataclasses.dataclass(frozen=True)
 class OnlineTrainer:
-    """Compiled pieces of an online run for one (env, agent, episode length); reuse it across cells."""
+    """Compiled pieces of an online run for one (env, agent, episode length); reuse it across cells.
+
+    collect_in / evaluate_in: "mjx" (the compiled collector on `env`) or "robosuite" (`task` in robosuite's
+    `workers` processes, eval/robosuite_eval.py): the same episode keys, the same transitions' layout."""
 
     env: Any
     agent: POIR
     max_steps: int
+    task: str | None = None
+    collect_in: str = "mjx"
+    evaluate_in: str = "mjx"
+    workers: int = 2
 
     @functools.cached_property
     def collector(self):
@@ -164,6 +171,26 @@ class OnlineTrainer:
         bar.close()
         return OnlineResult(inputs.params.replace(wm=state.wm.params), curve, rounds, resumed)
 
+    # ---- the simulators ---------------------------------------------------------------------------
+    def _episodes(self, where: str, params: POIRParams, keys: jax.Array, env_params: EnvParams, record: bool):
+        """(outcome, transitions (obs, action, next_obs, valid) [B, T, .] or None) of one episode per key."""
+        if where == "mjx":
+            out, trans = run_sharded(self.collector, params, keys, env_params)
+            return out, trans
+        from poir_mjx.eval import robosuite_eval
+
+        run = robosuite_eval.collect if record else robosuite_eval.evaluate
+        res = run(self.task, self.agent.plan, params, keys, np.asarray(env_params.sigma_init),
+                  np.asarray(env_params.sigma_action), self.max_steps, self.workers, progress=False)  # fmt: skip
+        if not record:
+            return res, None
+        out, trans = res
+        if trans is None:  # every episode ended at its reset: nothing to learn from
+            b, t, do, da = keys.shape[0], self.max_steps, self.agent.obs_size, self.agent.act_size
+            trans = (np.zeros((b, t, do)), np.zeros((b, t, da)), np.zeros((b, t, do)), np.zeros((b, t), bool))
+        dtype = jax.tree_util.tree_leaves(params.wm)[0].dtype
+        return out, tuple(jnp.asarray(x, bool if i == 3 else dtype) for i, x in enumerate(trans))
+
     # ---- the steps of a run ----------------------------------------------------------------------
     def _prepare(self, params: POIRParams, offline, env_params: EnvParams, eval_keys: jax.Array) -> RoundInputs:
         """Check the agent and data, build the expert world-model targets, broadcast the noise levels."""
@@ -202,7 +229,7 @@ class OnlineTrainer:
         n_eval = inputs.eval_keys.shape[0]
         # the collector again (its transitions unused): one compilation when num_envs == n_eval
         cur = inputs.params.replace(wm=st.wm.params)
-        res, _ = run_sharded(self.collector, cur, inputs.eval_keys, inputs.eval_params)
+        res, _ = self._episodes(self.evaluate_in, cur, inputs.eval_keys, inputs.eval_params, record=False)
         res = jax.tree_util.tree_map(np.asarray, res)
         k = int((res["first_success"] >= 0).sum())
         return {**self.counters(st.round), "successes": k,
@@ -216,7 +243,9 @@ class OnlineTrainer:
         key, k_collect, k_train = jax.random.split(state.key, 3)
         cur = params.replace(wm=state.wm.params)
         n = agent.config.online.num_envs
-        outcome, (o, a, o2, v) = run_sharded(self.collector, cur, jax.random.split(k_collect, n), inputs.deploy)
+        outcome, (o, a, o2, v) = self._episodes(self.collect_in, cur, jax.random.split(k_collect, n), inputs.deploy,
+                                                record=True)  # fmt: skip
+        t_collect = time.perf_counter() - t0
         flat = [x.reshape((-1,) + x.shape[2:]) for x in (o, a, o2, v)]
         err_now = deployment_error(agent.wm_module, state.wm.params, params.obs_norm, params.act_norm, *flat, clip)
         err_off = deployment_error(agent.wm_module, params.reward_wm, params.obs_norm, params.act_norm, *flat, clip)
@@ -234,6 +263,6 @@ class OnlineTrainer:
             "valid_transitions": int(np.asarray(v).sum()),
             "wm_error": float(np.mean(err_now)), "wm_error_offline": float(np.mean(err_off)),
             "loss_last": float(np.mean(losses[-1])), "online_fraction": float(frac),
-            "wall_s": time.perf_counter() - t0,
+            "collect_s": t_collect, "wall_s": time.perf_counter() - t0,
         }  # fmt: skip
         return state, log

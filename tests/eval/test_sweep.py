@@ -159,3 +159,30 @@ def test_online_sweep_resumes_mid_run_and_plots_the_curve(tmp_path, monkeypatch)
     assert again["resumed_from_round"] == 1
     assert [c["successes"] for c in again["curve"]] == [c["successes"] for c in rec["curve"]]
     assert [r["wm_error"] for r in again["rounds"]] == pytest.approx([r["wm_error"] for r in rec["rounds"]], rel=1e-6)
+
+
+@pytest.mark.slow
+@pytest.mark.needs_robosuite
+def test_online_sweep_in_robosuite_collects_there_and_resumes(tmp_path, monkeypatch):
+    """simulator robosuite: each round's deployments run in robosuite's workers (8 valid transitions of
+    2 episodes x 4 steps), evaluations too; killed in round 2 and resumed, the same curve and errors."""
+    from poir_mjx.online import loop
+
+    cfg_path = tmp_path / "online-rs.json"
+    cfg_path.write_text(json.dumps({**ONLINE, "name": "tiny-online-rs", "simulator": "robosuite"}))
+    cfg = sw.load_sweep_config(cfg_path)
+    monkeypatch.setattr(loop.OnlineTrainer, "collector", property(lambda self: pytest.fail("MJX was used")))
+    full = sw.run_sweep(cfg, tmp_path / "a", tmp_path / "data", tmp_path / "ckpt-a", progress=False)
+    rec = json.loads((full / "cells/lift/POIR-DRIL online/si=0.3_sa=0_seed=0.json").read_text())
+    assert rec["simulator"].startswith("robosuite 1.5") and [c["env_steps"] for c in rec["curve"]] == [0, 8, 16]
+    assert [r["valid_transitions"] for r in rec["rounds"]] == [8, 8] and rec["rounds"][0]["wm_error"] > 0
+    real = loop.finetune
+    monkeypatch.setattr(loop, "finetune", dies_on_call(real, 2))
+    with pytest.raises(KeyboardInterrupt):
+        sw.run_sweep(cfg, tmp_path / "b", tmp_path / "data", tmp_path / "ckpt-b", progress=False)
+    monkeypatch.setattr(loop, "finetune", real)
+    again = json.loads((sw.run_sweep(cfg, tmp_path / "b", tmp_path / "data", tmp_path / "ckpt-b", progress=False)
+                        / "cells/lift/POIR-DRIL online/si=0.3_sa=0_seed=0.json").read_text())  # fmt: skip
+    assert again["resumed_from_round"] == 1
+    assert [c["successes"] for c in again["curve"]] == [c["successes"] for c in rec["curve"]]
+    assert [r["wm_error"] for r in again["rounds"]] == pytest.approx([r["wm_error"] for r in rec["rounds"]], rel=1e-6)
