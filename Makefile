@@ -39,7 +39,7 @@ SWEEP_ARGS ?=
 # Where `make demos` records the scripted expert: robosuite (MuJoCo C) or mjx (vectorised, no robosuite).
 DEMO_SIM ?= robosuite
 
-.PHONY: help venv envs demos expert-success test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench sweep sweep-online eval xsim video ablations wheels clean
+.PHONY: help venv envs demos expert-success test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench-robosuite bench sweep sweep-online eval xsim video ablations wheels clean
 
 help:
 	@echo "make test       - both dependency sets: the full suite on the CPU set, the current-stack suite (CI runs this)"
@@ -54,6 +54,7 @@ help:
 	@echo "make bench-env  - MJX vs robosuite control-step throughput -> results/bench/env-<STACK>.{json,md}"
 	@echo "make bench-planner - POIR planner calls/s -> results/bench/planner.{json,md}"
 	@echo "make bench-e2e  - evaluated episodes per minute, EBC and POIR-DRIL -> results/bench/e2e.{json,md}"
+	@echo "make bench-robosuite - robosuite bare stepping vs EBC / POIR-DRIL collection -> results/bench/robosuite-e2e.{json,md}"
 	@echo "make bench      - all benchmarks -> results/bench/"
 	@echo "make sweep      - success rate vs noise, experiments/cpu-small.json -> results/cpu-small/ (SWEEP=other.json)"
 	@echo "make sweep-online - offline vs online fine-tuning, experiments/cpu-small-online.json -> results/cpu-small-online/"
@@ -113,7 +114,11 @@ bench-planner: $(STAMP)
 bench-e2e: $(STAMP)
 	$(PY) -m poir_mjx.cli bench e2e --out results/bench
 
-bench: bench-env bench-planner bench-e2e
+# robosuite's bare stepping next to EBC / POIR-DRIL collection (plain and overlapped), one worker per core.
+bench-robosuite: $(STAMP)
+	$(PY) -m poir_mjx.cli bench robosuite --out results/bench
+
+bench: bench-env bench-planner bench-e2e bench-robosuite
 
 sweep: $(STAMP)
 	$(PY) -m poir_mjx.cli sweep --config $(SWEEP) $(SWEEP_ARGS)

@@ -4,7 +4,7 @@
     eval --ckpt PATH [--sigma-init ...] [--simulator both]               evaluate one checkpoint (make eval, xsim)
     compare RUN... [--out F]                                             one table across runs (make ablations)
     video --run RUN --method M [--versus M2] --sigma-init S              a cell's episodes as an MP4 (make video)
-    envs / demos generate / demos success / bench env|planner|e2e        the other make targets
+    envs / demos generate / demos success / bench env|planner|e2e|robosuite        the other make targets
 
 Each subcommand is a frozen dataclass of its options (``poir_mjx/cli/options.py``, or the module that
 owns it) and a function taking it; tyro builds the parser from the dataclasses (``--help`` on any
@@ -32,12 +32,13 @@ COMMANDS: tuple[Command, ...] = (
     Command("bench env", o.BenchEnv, "poir_mjx.bench.env:run"),
     Command("bench planner", o.BenchPlanner, "poir_mjx.bench.planner:run"),
     Command("bench e2e", o.BenchE2E, "poir_mjx.bench.e2e:run"),
+    Command("bench robosuite", o.BenchRobosuite, "poir_mjx.bench.robosuite:run"),
     Command("video", "poir_mjx.video:VideoConfig", "poir_mjx.video.command:run", "poir_mjx.video.render:check_gl"),
 )
 # Subcommand groups: (help line, the subcommand run when none is named or None).
 GROUPS = {
     "demos": ("Scripted-expert demonstrations (make demos) and the expert's success rate.", "generate"),
-    "bench": ("Throughput benchmarks (make bench-env, bench-planner, bench-e2e).", None),
+    "bench": ("Throughput benchmarks (make bench-env, bench-planner, bench-e2e, bench-robosuite).", None),
 }
 PROG = "poir-mjx"
 

@@ -190,3 +190,24 @@ class BenchE2E:
     """Control steps per episode."""
     num_demos: int = 200
     """Scripted-expert demonstrations to train on."""
+
+
+@dataclasses.dataclass(frozen=True)
+class BenchRobosuite:
+    """Episodes in robosuite: bare stepping vs EBC and POIR-DRIL collection, plain and overlapped
+    (make bench-robosuite) -> <out>/robosuite-e2e.{json,md}, each row written as it finishes."""
+
+    out: Path = Path("results/bench")
+    """Output folder."""
+    task: Task = "lift"  # type: ignore[valid-type]
+    """Task to step."""
+    methods: tuple[str, ...] = ("EBC", "POIR-DRIL")
+    """Methods from the registry (their cpu-small agents, trained on first use from the scripted demos)."""
+    episodes: int = 16
+    """Episodes per timed batch."""
+    steps: int = 200
+    """Control steps per episode (episodes that succeed stop earlier: the rate counts steps taken)."""
+    workers: int = 0
+    """robosuite worker processes (0: one per CPU core)."""
+    sigma_init: float = 0.3
+    """Initial arm-joint noise (high enough that episodes run long)."""

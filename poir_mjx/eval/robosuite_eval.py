@@ -14,6 +14,8 @@ stepping once it succeeds (the success is counted) or its physics stops being fi
 
 from __future__ import annotations
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -65,7 +67,7 @@ def run(task, policy_fn, params, keys, sigma_init, sigma_action, steps, workers,
     envs_per_worker = max(1, min(envs_per_worker, -(-n // workers)))
     workers = max(1, min(workers, -(-n // envs_per_worker)))
     out = _Episodes(n, steps, record)
-    act = jax.jit(jax.vmap(policy_fn, in_axes=(None, 0, 0)))
+    act = batched_policy(policy_fn)
     bar = tqdm(total=n, desc=f"robosuite {task}", unit="ep", disable=not progress)
     with RobosuitePool(task, workers, envs_per_worker) as pool:
         groups = pool.groups(2 if overlap else 1)
@@ -80,6 +82,13 @@ def run(task, policy_fn, params, keys, sigma_init, sigma_action, steps, workers,
     bar.close()
     result = {"first_success": out.first, "diverged": out.diverged, "steps": np.full(n, steps)}
     return result, out.transitions()
+
+
+@functools.lru_cache(maxsize=16)
+def batched_policy(policy_fn):
+    """jit(vmap(policy_fn)) over (obs, key) rows, one per policy (an agent's bound method counts as one), so
+    repeated calls (an online run's rounds) are not traced and compiled again."""
+    return jax.jit(jax.vmap(policy_fn, in_axes=(None, 0, 0)))
 
 
 class _Episodes:
