@@ -16,13 +16,23 @@ def mjx_version() -> str:
     return package_version("mujoco-mjx") or "?"
 
 
+def mujoco_version() -> str | None:
+    """MuJoCo's own version (``mujoco.__version__``): MuJoCo 4 ships the module in split distributions
+    (mujoco-core, ...) with no distribution named ``mujoco``, so its metadata cannot say."""
+    try:
+        import mujoco
+    except ImportError:
+        return None
+    return getattr(mujoco, "__version__", None) or package_version("mujoco") or package_version("mujoco-core")
+
+
 def stack() -> dict[str, str | None]:
     """Versions of Python, jax, jaxlib, mujoco, mujoco-mjx, numpy, flax and robosuite (None: not installed)."""
     import platform
 
     out = {"python": platform.python_version()}
     for name in ("jax", "jaxlib", "mujoco", "mujoco-mjx", "numpy", "flax", "robosuite"):
-        out[name] = package_version(name)
+        out[name] = mujoco_version() if name == "mujoco" else package_version(name)
     return out
 
 
@@ -36,7 +46,7 @@ def stack_line() -> str:
 def simulator_line(simulator: str) -> str:
     """Which simulator produced a result, with its version: "MJX (mujoco-mjx 3.3.7, float32)" or robosuite's."""
     if simulator == "robosuite":
-        return f"robosuite {package_version('robosuite') or '?'} (MuJoCo {package_version('mujoco') or '?'})"
+        return f"robosuite {package_version('robosuite') or '?'} (MuJoCo {mujoco_version() or '?'})"
     import jax
 
     return f"MJX (mujoco-mjx {mjx_version()}, {'float64' if jax.config.jax_enable_x64 else 'float32'})"

@@ -54,3 +54,18 @@ def test_a_batch_larger_than_the_data_is_refused():
     state = ens.init_train_state(ens.init_ensemble(MODULE, jax.random.PRNGKey(0), K, D_IN), opt)
     with pytest.raises(ValueError, match="batch_size: 64 exceeds the number of training samples 10"):
         ens.train_epoch(MODULE, opt, 64, state, jnp.zeros((10, D_IN)), jnp.zeros((10, D_OUT)), jax.random.PRNGKey(0))
+
+
+def test_training_runs_share_one_compiled_epoch():
+    """A fresh fit with the same config and shapes reuses the compiled epoch (one optimizer object per config)."""
+    from poir_mjx.core.agent import POIR
+    from poir_mjx.core.config import MLPConfig, POIRConfig
+    from tests.core.toy import expert_data
+
+    cfg = POIRConfig(ensemble_size=2, bc=MLPConfig(layers=2, width=8), world_model=MLPConfig(layers=2, width=8),
+                     train=TrainConfig(epochs=1, batch_size=32, learning_rate=2e-3))  # fmt: skip
+    data = expert_data(n_demos=4, steps=10)
+    POIR(cfg, 2, 2).fit(jax.random.PRNGKey(0), *data)
+    compiled = ens.train_epoch._cache_size()
+    POIR(cfg, 2, 2).fit(jax.random.PRNGKey(1), *data)
+    assert ens.train_epoch._cache_size() == compiled
