@@ -149,10 +149,11 @@ class POIR:
     # The BC ensemble in the planner's spaces (normalised states in, normalised actions out), whatever
     # space it was trained in (config.bc_space).
     def _bc_all(self, params: POIRParams, s_norm: jax.Array) -> jax.Array:
-        """Every head on the same states: [..., ds] -> [K, ..., da]."""
+        """Every head on the same states: [..., ds] -> [K, ..., da] (planner.head_chunk heads at a time)."""
+        chunk = self.config.planner.head_chunk
         if self.config.bc_space != "raw":
-            return ens.apply_all(self.bc_module, params.bc, s_norm)
-        return params.act_norm(ens.apply_all(self.bc_module, params.bc, params.obs_norm.inverse(s_norm)))
+            return ens.apply_all(self.bc_module, params.bc, s_norm, chunk)
+        return params.act_norm(ens.apply_all(self.bc_module, params.bc, params.obs_norm.inverse(s_norm), chunk))
 
     def _bc_each(self, params: POIRParams, s_norm: jax.Array) -> jax.Array:
         """Head k on its own states: [K, ..., ds] -> [K, ..., da]."""
@@ -191,7 +192,7 @@ class POIR:
 
     def _morel(self, params: POIRParams, s: jax.Array, a: jax.Array) -> jax.Array:
         """MOREL on the predicted next states as the rollout sees them (clipped when normalizer.clip > 0)."""
-        deltas = ens.apply_all(self.wm_module, params.reward_wm, jnp.concatenate([s, a], -1))
+        deltas = ens.apply_all(self.wm_module, params.reward_wm, jnp.concatenate([s, a], -1), self.config.planner.head_chunk)
         clipped = self.config.normalize and self.config.normalizer.clip > 0
         return rewards.morel_reward(self._clip(s + deltas) if clipped else deltas)
 

@@ -46,8 +46,11 @@ def ensemble_size(params) -> int:
     return jax.tree_util.tree_leaves(params)[0].shape[0]
 
 
-def apply_all(module: nn.Module, params, x: jax.Array) -> jax.Array:
-    """Every member on the same input: x [..., d] -> [K, ..., out]."""
+def apply_all(module: nn.Module, params, x: jax.Array, chunk: int = 0) -> jax.Array:
+    """Every member on the same input: x [..., d] -> [K, ..., out]. chunk > 0: that many members at a time
+    (``lax.map``), which bounds the activations held at once to chunk x |x| instead of K x |x|."""
+    if 0 < chunk < ensemble_size(params):
+        return jax.lax.map(lambda p: module.apply(p, x), params, batch_size=chunk)
     return jax.vmap(lambda p: module.apply(p, x))(params)
 
 

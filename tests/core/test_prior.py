@@ -138,3 +138,23 @@ def test_morel_scores_the_clipped_predictions_the_rollout_uses():
     clipped = rewards.morel_reward(jnp.clip(s + deltas, -0.5, 0.5))
     np.testing.assert_allclose(agent.trajectory_rewards(params, s, a), clipped, rtol=1e-6)
     assert not np.allclose(clipped, rewards.morel_reward(deltas))  # the clip matters here
+
+
+@pytest.mark.parametrize("reward", ["dril", "morel"])
+def test_head_chunks_bound_memory_not_the_result(fitted, reward):
+    """planner.head_chunk applies the rewards' heads a few at a time: the same rewards, less memory held."""
+    agent, params = fitted
+    k = dataclasses.replace(agent.config, ensemble_size=9)
+    agent9 = POIR(k, 2, 2)
+    params9, _ = agent9.fit(jax.random.PRNGKey(2), *expert_data(n_demos=8, steps=10))
+    s = jax.random.normal(jax.random.PRNGKey(9), (9, 400, 2))
+    a = jax.random.normal(jax.random.PRNGKey(10), (9, 400, 2))
+
+    def rewards_fn(chunk):
+        ag = POIR(_with(k, reward=reward, head_chunk=chunk), 2, 2)
+        return jax.jit(ag.trajectory_rewards)
+
+    full, chunked = rewards_fn(0), rewards_fn(1)
+    np.testing.assert_allclose(chunked(params9, s, a), full(params9, s, a), rtol=1e-5, atol=1e-6)
+    mem = [f.lower(params9, s, a).compile().memory_analysis().temp_size_in_bytes for f in (full, chunked)]
+    assert mem[1] < mem[0] / 2, mem
