@@ -49,4 +49,6 @@ def simulator_line(simulator: str) -> str:
         return f"robosuite {package_version('robosuite') or '?'} (MuJoCo {mujoco_version() or '?'})"
     import jax
 
-    return f"MJX (mujoco-mjx {mjx_version()}, {'float64' if jax.config.jax_enable_x64 else 'float32'})"
+    from poir_mjx.devices import precision_note
+
+    return f"MJX (mujoco-mjx {mjx_version()}, {'float64' if jax.config.jax_enable_x64 else 'float32'}{precision_note()})"

@@ -12,3 +12,20 @@ def test_mujoco_version_comes_from_the_module_where_no_mujoco_distribution_exist
     assert versions.stack()["mujoco"] == mujoco.__version__
     assert f"mujoco {mujoco.__version__}," in versions.stack_line()
     assert f"(MuJoCo {mujoco.__version__})" in versions.simulator_line("robosuite")
+
+
+def test_precision_is_pinned_on_accelerators_and_recorded(monkeypatch):
+    import jax
+
+    from poir_mjx import devices
+
+    before = jax.config.jax_default_matmul_precision
+    devices.pin_precision()
+    assert jax.config.jax_default_matmul_precision == before and devices.precision_note() == ""  # CPU: untouched
+    monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
+    try:
+        devices.pin_precision()
+        assert jax.config.jax_default_matmul_precision == "highest"
+        assert versions.simulator_line("mjx").endswith("float32, matmul precision highest)")
+    finally:
+        jax.config.update("jax_default_matmul_precision", before)

@@ -78,6 +78,10 @@ def main(argv=None) -> int:
     from poir_mjx.optional import MissingDependencyError
 
     try:
+        if command.name not in ("compare", "envs"):  # every command that computes: full float32 on a GPU
+            from poir_mjx.devices import pin_precision
+
+            pin_precision()
         rc = command.function()(opts)
     except (ConfigError, CheckpointError, DatasetError, ModelFileError, UnknownTaskError, UnknownMethodError,
             MissingDependencyError, DeviceError) as e:  # fmt: skip
