@@ -119,16 +119,21 @@ def run(opts: BenchEnv) -> int:
         "kinematics": bench_kinematics(),
         "tasks": {},
     }
+    out = Path(opts.out)
+
+    def write():  # after every row: an interrupted run keeps what it measured
+        atomic_write_text(out / f"{opts.name}.json", json.dumps(res, indent=2) + "\n")
+        atomic_write_text(out / f"{opts.name}.md", to_markdown(res))
+
     for task in opts.tasks:
-        r = {"robosuite": bench_robosuite(task, opts.robosuite_steps) if has_robosuite() else None, "mjx": []}
+        r = res["tasks"][task] = {"robosuite": bench_robosuite(task, opts.robosuite_steps) if has_robosuite() else None,
+                                  "mjx": []}  # fmt: skip
+        write()
         rich = task != "lift" and opts.contact_rich_batch_sizes
         sizes = opts.contact_rich_batch_sizes if rich else opts.batch_sizes
         for b in sizes:
             r["mjx"].append(bench_mjx(task, b, opts.steps))
             print(f"{task} batch {b}: {r['mjx'][-1]['control_steps_per_s']:.1f} steps/s", flush=True)
-        res["tasks"][task] = r
-    out = Path(opts.out)
-    atomic_write_text(out / f"{opts.name}.json", json.dumps(res, indent=2) + "\n")
-    atomic_write_text(out / f"{opts.name}.md", to_markdown(res))
+            write()
     print(to_markdown(res))
     return 0

@@ -102,6 +102,7 @@ def run(opts: BenchPlanner) -> int:
         "expert_states": opts.expert_states,
         "rows": [],
     }
+    out = Path(opts.out)
     for preset in opts.presets:
         batches = opts.paper_batch_sizes if (preset == "paper" and opts.paper_batch_sizes) else opts.batch_sizes
         for reward in opts.rewards:
@@ -109,8 +110,7 @@ def run(opts: BenchPlanner) -> int:
                 r = bench_one(preset, reward, b, opts.calls, opts.expert_states)
                 res["rows"].append(r)
                 print(f"{preset} {reward} batch {b}: {r['ms_per_call']:.1f} ms per call", flush=True)
-    out = Path(opts.out)
-    atomic_write_text(out / "planner.json", json.dumps(res, indent=2) + "\n")
-    atomic_write_text(out / "planner.md", to_markdown(res))
+                atomic_write_text(out / "planner.json", json.dumps(res, indent=2) + "\n")  # every row as it finishes
+                atomic_write_text(out / "planner.md", to_markdown(res))
     print(to_markdown(res))
     return 0

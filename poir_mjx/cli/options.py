@@ -190,6 +190,10 @@ class BenchE2E:
     """Control steps per episode."""
     num_demos: int = 200
     """Scripted-expert demonstrations to train on."""
+    demo_simulator: Literal["auto", "robosuite", "mjx"] = "auto"
+    """Where the demos are recorded: "auto" (robosuite where installed, else MJX), "robosuite" or "mjx"."""
+    demo_batch: int = 0
+    """MJX demo episodes per compiled batch (0: 256 on an accelerator, 16 on a CPU)."""
 
 
 @dataclasses.dataclass(frozen=True)
