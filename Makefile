@@ -39,7 +39,7 @@ SWEEP_ARGS ?=
 # Where `make demos` records the scripted expert: robosuite (MuJoCo C) or mjx (vectorised, no robosuite).
 DEMO_SIM ?= robosuite
 
-.PHONY: help venv envs demos expert-success test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench-robosuite bench sweep sweep-online eval xsim video ablations wheels clean
+.PHONY: help venv envs demos expert-success test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench-robosuite bench sweep sweep-online eval xsim video ablations wheels gpu-check gpu-carry clean
 
 help:
 	@echo "make test       - both dependency sets: the full suite on the CPU set, the current-stack suite (CI runs this)"
@@ -154,6 +154,31 @@ wheels:
 	  --platform manylinux_2_28_x86_64 --platform manylinux_2_27_x86_64 --platform manylinux_2_17_x86_64 \
 	  --platform manylinux2014_x86_64 --platform manylinux1_x86_64 --platform any \
 	  -d wheels -r requirements/current.txt $(if $(NO_CUDA),,-r requirements/$(CUDA).txt) "setuptools>=68"
+
+# The prepared GPU run (docs/gpu.md): the machine's own python3 and packages plus the wheels carried in .whl/
+# (make gpu-carry), nothing installed from a network, no virtual environment. On a lent machine:
+# make gpu-check GPU_OUT=$$OUT; here, the same stages at tiny sizes: make gpu-check GPU_CHECK_ARGS=--dry-run.
+GPU_PYTHON     ?= python3
+GPU_SITE       ?= /tmp/poir-mjx-site
+GPU_OUT        ?= results/gpu
+GPU_CHECK_ARGS ?=
+GPU_ENV = PYTHONPATH=$(CURDIR):$(GPU_SITE) JAX_COMPILATION_CACHE_DIR=$(CURDIR)/.cache/jax-gpu
+
+gpu-check:
+	@if ls .whl/*.whl >/dev/null 2>&1; then $(GPU_PYTHON) -m pip install -q --no-index --no-deps --no-compile \
+	  --no-cache-dir --upgrade --target $(GPU_SITE) .whl/*.whl; fi
+	$(GPU_ENV) $(GPU_PYTHON) -m poir_mjx.gpucheck.preflight
+	$(GPU_ENV) $(GPU_PYTHON) -m poir_mjx.cli gpu-check --out $(GPU_OUT) $(GPU_CHECK_ARGS)
+
+# What the lent GPU machine lacks (its image has jax 0.11.2, flax, optax, numpy 2, h5py, scipy, matplotlib,
+# tqdm, absl-py, etils): MuJoCo, MJX and what they and the command line import, as wheels in .whl/ (< 64 MiB).
+GPU_CARRY_PINS = mujoco==3.17.0 mujoco-mjx==3.17.0 trimesh==5.2.0 glfw==2.11.0 PyOpenGL==3.1.10 \
+	tyro==1.0.16 typeguard==4.6.1 docstring_parser==0.18.0
+gpu-carry:
+	rm -rf .whl && python3 -m pip download --quiet --no-deps --only-binary=:all: --python-version 3.12 \
+	  --implementation cp --platform manylinux_2_28_x86_64 --platform manylinux_2_27_x86_64 \
+	  --platform manylinux_2_17_x86_64 --platform manylinux2014_x86_64 --platform any -d .whl $(GPU_CARRY_PINS)
+	@du -sh .whl && ls .whl
 
 clean:
 	rm -rf .venv .venv-current .venv-gpu .cache .pytest_cache

@@ -33,6 +33,7 @@ COMMANDS: tuple[Command, ...] = (
     Command("bench planner", o.BenchPlanner, "poir_mjx.bench.planner:run"),
     Command("bench e2e", o.BenchE2E, "poir_mjx.bench.e2e:run"),
     Command("bench robosuite", o.BenchRobosuite, "poir_mjx.bench.robosuite:run"),
+    Command("gpu-check", o.GpuCheck, "poir_mjx.gpucheck.command:run"),
     Command("video", "poir_mjx.video:VideoConfig", "poir_mjx.video.command:run", "poir_mjx.video.render:check_gl"),
 )
 # Subcommand groups: (help line, the subcommand run when none is named or None).

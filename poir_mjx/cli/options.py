@@ -215,3 +215,20 @@ class BenchRobosuite:
     """robosuite worker processes (0: one per CPU core)."""
     sigma_init: float = 0.3
     """Initial arm-joint noise (high enough that episodes run long)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class GpuCheck:
+    """The prepared GPU run (make gpu-check): env, planner, end-to-end, sweep and expert stages in priority
+    order, each under a deadline, each writing <out>/<stage>.json after every row; complete stages are skipped."""
+
+    out: Path = Path("results/gpu")
+    """Output folder (on the lent machine: $OUT): <stage>.json and summary.md."""
+    dry_run: bool = False
+    """The same stages at tiny sizes on the CPU, in this process (make test-current runs it)."""
+    scratch: Path = Path("/tmp/poir-mjx-gpu-check")
+    """Demos, checkpoints and the sweep's run folder (not results)."""
+    stages: tuple[Literal["env", "planner", "e2e", "sweep", "expert"], ...] = ("env", "planner", "e2e", "sweep", "expert")
+    """Stages to run (always in priority order)."""
+    only: Optional[Literal["env", "planner", "e2e", "sweep", "expert"]] = None
+    """Run this one stage here and now, no deadline (what the runner's child processes do)."""

@@ -1,0 +1,69 @@
+"""The sizes of a GPU check: one typed, frozen config, two named instances (the GPU run and the dry run)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+STAGES = ("env", "planner", "e2e", "sweep", "expert")
+
+
+@dataclasses.dataclass(frozen=True)
+class Sizes:
+    env_batches: tuple[int, ...]
+    """Lift episodes per batched MJX step, in priority order (the reset is compiled once, at the largest)."""
+    env_steps: int
+    """Timed batched control steps per size."""
+    planner_preset: str
+    """The POIR preset whose planner is timed (paper: N 4000, H 5, K 27, 5x300)."""
+    planner_batches: tuple[int, ...]
+    """Episodes per planner call."""
+    planner_calls: int
+    """Timed calls per row (after a compiling call)."""
+    expert_states: int
+    """Expert states the L2 reward searches."""
+    e2e_preset: str
+    """The preset trained and evaluated end to end (EBC and POIR-DRIL, Lift, sigma_init 0.2)."""
+    e2e_episodes: int
+    """Episodes per end-to-end batch (the sweep stage reuses this batch shape)."""
+    e2e_steps: int
+    """Control steps per episode."""
+    epochs: int
+    """Training epochs (0: the preset's)."""
+    num_demos: int
+    """Scripted-expert demos recorded in MJX for training."""
+    demo_batch: int
+    """MJX demo episodes per compiled batch."""
+    sweep_sigma_init: tuple[float, ...]
+    """The small sweep's noise levels; e2e_episodes / len(...) episodes each: the e2e batch shape."""
+    expert_tasks: tuple[str, ...]
+    """Tasks whose scripted expert's MJX success is measured."""
+    expert_episodes: int
+    """Episodes per task."""
+    expert_steps: int
+    """Control steps per expert episode (0: the expert's own budget)."""
+    deadlines: tuple[tuple[str, int], ...]
+    """(stage, seconds): a stage still running then is stopped; what it wrote stays."""
+    budget_s: int
+    """All stages together; each stage gets at most what is left."""
+
+
+GPU = Sizes(
+    env_batches=(1, 4096, 1024), env_steps=20,
+    planner_preset="paper", planner_batches=(1, 64), planner_calls=5, expert_states=30_000,
+    e2e_preset="cpu-small", e2e_episodes=256, e2e_steps=400, epochs=0, num_demos=200, demo_batch=256,
+    sweep_sigma_init=(0.02, 0.1, 0.2, 0.4),
+    expert_tasks=("pick_place_can", "nut_assembly_square"), expert_episodes=100, expert_steps=0,
+    deadlines=(("env", 100), ("planner", 100), ("e2e", 170), ("sweep", 60), ("expert", 120)), budget_s=480,
+)  # fmt: skip
+DRY = Sizes(
+    env_batches=(1, 2), env_steps=2,
+    planner_preset="cpu-small", planner_batches=(1, 2), planner_calls=2, expert_states=500,
+    e2e_preset="cpu-small", e2e_episodes=2, e2e_steps=4, epochs=2, num_demos=4, demo_batch=2,
+    sweep_sigma_init=(0.02, 0.4),
+    expert_tasks=("lift",), expert_episodes=2, expert_steps=4,
+    deadlines=tuple((s, 1800) for s in STAGES), budget_s=3600,
+)  # fmt: skip
+
+
+def deadline(sizes: Sizes, stage: str) -> int:
+    return dict(sizes.deadlines)[stage]

@@ -1,0 +1,141 @@
+"""The five stages of a GPU check, in priority order; each adds rows to its Record as it measures them.
+
+1. env: Lift MJX control steps/s per batch size (the reset compiled once, at the largest batch).
+2. planner: the POIR planner (DRIL, L2, MOREL) per batch: Hz per episode, FLOPs per call (XLA's cost
+   analysis) and the achieved FLOP/s against the device's float32 peak where known.
+3. e2e: EBC and POIR-DRIL evaluated episodes per minute on Lift, demos recorded in MJX.
+4. sweep: a small Lift sweep (EBC, POIR-DRIL) whose batch is the e2e stage's, reusing its demos,
+   checkpoints and compiled evaluators.
+5. expert: the scripted expert's success in MJX.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from pathlib import Path
+
+import jax
+import numpy as np
+
+from poir_mjx.gpucheck.record import Record
+from poir_mjx.gpucheck.sizes import Sizes
+
+# Dense float32 (no tensor cores), vendor datasheets: the ceiling of full-precision matmuls.
+PEAK_FP32 = {"H200": 67e12, "H100": 67e12, "A100": 19.5e12, "L40S": 91.6e12}
+
+
+def peak_flops() -> float | None:
+    kind = getattr(jax.devices()[0], "device_kind", "")
+    return next((v for k, v in PEAK_FP32.items() if k in kind), None)
+
+
+def env_stage(sizes: Sizes, rec: Record, scratch: Path) -> None:
+    from poir_mjx.envs.env import batched, make_env, make_params
+
+    env = make_env("lift")
+    reset, _, step = batched("lift")
+    big = max(sizes.env_batches)
+    t0 = time.perf_counter()
+    state = jax.block_until_ready(reset(jax.random.split(jax.random.PRNGKey(0), big), make_params(np.full(big, 0.02))))
+    reset_s = time.perf_counter() - t0
+    for b in sizes.env_batches:
+        st = jax.tree_util.tree_map(lambda x: x[:b], state)
+        act = jax.random.uniform(jax.random.PRNGKey(b), (sizes.env_steps + 1, b, env.action_size), minval=-1, maxval=1)
+        t0 = time.perf_counter()
+        st = jax.block_until_ready(step(st, act[0]))
+        compile_s = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        for k in range(1, sizes.env_steps + 1):
+            st = step(st, act[k])
+        jax.block_until_ready(st)
+        dt = time.perf_counter() - t0
+        rec.add({"task": "lift", "batch": b, "steps": sizes.env_steps, "control_steps_per_s": b * sizes.env_steps / dt,
+                 "ms_per_batched_step": 1e3 * dt / sizes.env_steps, "compile_and_first_step_s": compile_s,
+                 "reset_compile_and_run_s_at_batch_" + str(big): reset_s,
+                 "diverged": int(np.asarray(st.info["diverged"]).sum())})  # fmt: skip
+
+
+def _flops(compiled) -> float | None:
+    cost = compiled.cost_analysis()
+    cost = cost[0] if isinstance(cost, (list, tuple)) and cost else cost
+    return float(cost["flops"]) if isinstance(cost, dict) and "flops" in cost else None
+
+
+def planner_stage(sizes: Sizes, rec: Record, scratch: Path) -> None:
+    from poir_mjx.bench.planner import ACT, OBS, random_params
+    from poir_mjx.core.agent import POIR
+    from poir_mjx.core.config import PRESETS
+
+    peak = peak_flops()
+    for reward in ("dril", "l2", "morel"):
+        base = PRESETS[sizes.planner_preset]
+        agent = POIR(dataclasses.replace(base, planner=dataclasses.replace(base.planner, reward=reward)), OBS, ACT)
+        params = random_params(agent, sizes.expert_states, jax.random.PRNGKey(0))
+        plan = jax.jit(jax.vmap(agent.plan, in_axes=(None, 0, 0)))
+        for b in sizes.planner_batches:
+            obs = jax.random.normal(jax.random.PRNGKey(1), (b, OBS))
+            keys = jax.random.split(jax.random.PRNGKey(2), b)
+            t0 = time.perf_counter()
+            compiled = plan.lower(params, obs, keys).compile()
+            jax.block_until_ready(compiled(params, obs, keys))
+            compile_s = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            for c in range(sizes.planner_calls):
+                out = compiled(params, obs, jax.random.split(jax.random.PRNGKey(3 + c), b))
+            jax.block_until_ready(out)
+            dt = (time.perf_counter() - t0) / sizes.planner_calls
+            flops = _flops(compiled)
+            pc = agent.config.planner
+            rec.add({"preset": sizes.planner_preset, "reward": reward, "episodes": b, "N": pc.num_trajectories,
+                     "H": pc.horizon, "K": agent.config.ensemble_size, "ms_per_call": 1e3 * dt, "hz_per_episode": 1 / dt,
+                     "episode_steps_per_s": b / dt, "compile_and_first_s": compile_s, "flops_per_call": flops,
+                     "achieved_flop_s": flops / dt if flops else None, "peak_fp32_flop_s": peak,
+                     "fraction_of_peak": flops / dt / peak if flops and peak else None})  # fmt: skip
+
+
+def e2e_stage(sizes: Sizes, rec: Record, scratch: Path) -> None:
+    from poir_mjx.bench.e2e import bench
+
+    for method in ("EBC", "POIR-DRIL"):
+        rec.add(bench(sizes.e2e_preset, method, sizes.e2e_episodes, sizes.e2e_steps, sizes.num_demos,
+                      demo_simulator="mjx", demo_batch=sizes.demo_batch, epochs=sizes.epochs,
+                      data_dir=scratch / "data", ckpt_dir=scratch / "checkpoints"))  # fmt: skip
+
+
+def sweep_config(sizes: Sizes):
+    from poir_mjx.eval.sweep_config import SweepConfig
+
+    return SweepConfig(name="gpu-check-lift", preset=sizes.e2e_preset, tasks=("lift",), methods=("EBC", "POIR-DRIL"),
+                       sigma_init=sizes.sweep_sigma_init, episodes=sizes.e2e_episodes // len(sizes.sweep_sigma_init),
+                       max_steps=sizes.e2e_steps, num_demos=sizes.num_demos, demo_simulator="mjx",
+                       demo_batch=sizes.demo_batch, simulator="mjx", epochs=sizes.epochs)  # fmt: skip
+
+
+def sweep_stage(sizes: Sizes, rec: Record, scratch: Path) -> None:
+    from poir_mjx.eval.artifacts import cell_path
+    from poir_mjx.eval.sweep import run_sweep
+
+    cfg = sweep_config(sizes)
+    t0 = time.perf_counter()
+    out = run_sweep(cfg, scratch / "results", scratch / "data", scratch / "checkpoints", progress=False,
+                    replace_config=True)  # fmt: skip
+    wall = time.perf_counter() - t0
+    for m in cfg.methods:
+        for si in cfg.sigma_init:
+            cell = json.loads(cell_path(out, "lift", m, si, 0.0, 0).read_text())
+            rec.add({"method": m, "sigma_init": si, "successes": cell["successes"], "episodes": cell["episodes"],
+                     "wilson95": cell["wilson95"], "simulator": cell.get("simulator"), "sweep_wall_s": wall})  # fmt: skip
+
+
+def expert_stage(sizes: Sizes, rec: Record, scratch: Path) -> None:
+    from poir_mjx.data.demos import mjx_success
+
+    for task in sizes.expert_tasks:
+        r = mjx_success(task, sizes.expert_episodes, seed=1, sigma_init=0.02, steps=sizes.expert_steps or None)
+        rec.add({"task": task, "sigma_init": 0.02, **r})
+
+
+STAGE_FUNCTIONS = {"env": env_stage, "planner": planner_stage, "e2e": e2e_stage, "sweep": sweep_stage,
+                   "expert": expert_stage}  # fmt: skip

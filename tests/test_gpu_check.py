@@ -1,0 +1,63 @@
+"""The prepared GPU run (poir_mjx/gpucheck): deadlines, the one-line refusals, and the dry run of every stage."""
+
+import json
+import sys
+import time
+
+import pytest
+
+from poir_mjx import cli
+from poir_mjx.gpucheck import preflight, runner
+from poir_mjx.gpucheck.sizes import STAGES
+from poir_mjx.optional import has_robosuite
+
+
+def test_a_stage_past_its_deadline_is_stopped_with_its_children(tmp_path):
+    flag = tmp_path / "grandchild-alive"
+    code = (f"import subprocess, sys, time; subprocess.Popen([sys.executable, '-c', "
+            f"'import time, pathlib; time.sleep(3); pathlib.Path(r\"{flag}\").touch()']); time.sleep(30)")
+    t0 = time.monotonic()
+    status, secs = runner.run_limited([sys.executable, "-c", code], 1.0)
+    assert status == "stopped at its deadline (1 s)" and secs < 10 and time.monotonic() - t0 < 10
+    time.sleep(4)
+    assert not flag.exists()  # the whole process group went
+    assert runner.run_limited([sys.executable, "-c", "raise SystemExit(3)"], 10)[0] == "failed (exit status 3)"
+
+
+def test_without_a_gpu_it_is_one_line_and_exit_2(tmp_path, capsys):
+    assert cli.main(["gpu-check", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "a GPU was requested but jax" in err and err.count("\n") == 1
+
+
+def test_preflight_names_what_is_missing(monkeypatch, capsys):
+    monkeypatch.setattr(preflight, "NEEDED", ("json", "no_such_module_xyz"))
+    assert preflight.main() == 2
+    err = capsys.readouterr().err
+    assert "missing Python packages no_such_module_xyz;" in err and err.count("\n") == 1
+
+
+@pytest.mark.slow
+@pytest.mark.current_stack
+@pytest.mark.skipif(has_robosuite(), reason="make test-current's: the GPU machine's software has no robosuite, and "
+                    "the CPU set's own tests cover the stages' code")  # fmt: skip
+def test_dry_run_runs_every_stage_and_a_rerun_skips_them(tmp_path, capsys):
+    out, scratch = tmp_path / "gpu", tmp_path / "scratch"
+    assert cli.main(["gpu-check", "--dry-run", "--out", str(out), "--scratch", str(scratch)]) == 0
+    for stage in STAGES:
+        data = json.loads((out / f"{stage}.json").read_text())
+        assert data["complete"] and data["dry_run"] and data["rows"], stage
+        assert data["machine"]["device"].startswith("cpu") and data["machine"]["versions"]["mujoco"]
+    rows = {s: json.loads((out / f"{s}.json").read_text())["rows"] for s in STAGES}
+    assert [r["batch"] for r in rows["env"]] == [1, 2] and all(r["control_steps_per_s"] > 0 for r in rows["env"])
+    assert {r["reward"] for r in rows["planner"]} == {"dril", "l2", "morel"}
+    assert all(r["flops_per_call"] and r["flops_per_call"] > 0 for r in rows["planner"])
+    assert [r["method"] for r in rows["e2e"]] == ["EBC", "POIR-DRIL"] and rows["e2e"][0]["demo_simulator"] == "mjx"
+    assert {(r["method"], r["episodes"]) for r in rows["sweep"]} == {("EBC", 1), ("POIR-DRIL", 1)}
+    assert rows["expert"][0]["task"] == "lift" and rows["expert"][0]["episodes"] == 2
+    summary = (out / "summary.md").read_text()
+    assert "## env: complete" in summary and "## expert: complete" in summary
+    capsys.readouterr()
+    assert cli.main(["gpu-check", "--dry-run", "--out", str(out), "--scratch", str(scratch)]) == 0
+    assert capsys.readouterr().out.count("complete earlier") == 0  # skipped stages print nothing...
+    assert "## planner: complete earlier" in (out / "summary.md").read_text()  # ...and say so in the summary
