@@ -56,7 +56,7 @@ GPU = Sizes(
     deadlines=(("env", 100), ("planner", 100), ("e2e", 170), ("sweep", 60), ("expert", 120)), budget_s=480,
 )  # fmt: skip
 DRY = Sizes(
-    env_batches=(1, 2), env_steps=2,
+    env_batches=(1,), env_steps=2,
     planner_preset="cpu-small", planner_batches=(1, 2), planner_calls=2, expert_states=500,
     e2e_preset="cpu-small", e2e_episodes=2, e2e_steps=4, epochs=2, num_demos=4, demo_batch=2,
     sweep_sigma_init=(0.02, 0.4),
