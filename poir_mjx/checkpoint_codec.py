@@ -16,6 +16,7 @@ directory layout and async managers serve multi-host sharded arrays, which these
 
 from __future__ import annotations
 
+import hashlib
 import json
 from pathlib import Path
 from typing import Any, Mapping
@@ -32,9 +33,12 @@ class CheckpointError(ValueError):
 
 
 def write(path: str | Path, fmt: str, fields: Mapping[str, Any]) -> Path:
-    """Write ``{"format": fmt, **fields}`` atomically; pytree fields should come from ``state_dict``."""
+    """Write ``{"format": fmt, **fields}`` atomically, wrapped with the sha256 of its bytes (verified by ``read``);
+    pytree fields should come from ``state_dict``."""
     path = Path(path)
-    atomic_write_bytes(path, serialization.msgpack_serialize({"format": fmt, **fields}))
+    payload = serialization.msgpack_serialize({"format": fmt, **fields})
+    wrapped = {"format": fmt, "sha256": hashlib.sha256(payload).hexdigest(), "payload": payload}
+    atomic_write_bytes(path, serialization.msgpack_serialize(wrapped))
     return path
 
 
@@ -88,10 +92,19 @@ def read(path: str | Path, fmt: str, retired: Mapping[str, str] | None = None) -
         raise CheckpointError(f"{path}: is a directory, expected a checkpoint file")
     if not path.is_file():
         raise CheckpointError(f"{path}: no such checkpoint file")
+    damaged = "; the file is damaged or truncated: delete it and it is made again"
     try:
         blob = serialization.msgpack_restore(path.read_bytes())
     except Exception as e:
-        raise CheckpointError(f"{path}: not a poir-mjx checkpoint ({type(e).__name__}: {e})") from e
+        raise CheckpointError(f"{path}: not a poir-mjx checkpoint ({type(e).__name__}: {e}){damaged}") from e
+    if isinstance(blob, dict) and "payload" in blob:  # checksummed (files written before it carry none)
+        payload = blob["payload"]
+        if not isinstance(payload, bytes) or hashlib.sha256(payload).hexdigest() != blob.get("sha256"):
+            raise CheckpointError(f"{path}: field 'sha256' does not match the content{damaged}")
+        try:
+            blob = serialization.msgpack_restore(payload)
+        except Exception as e:
+            raise CheckpointError(f"{path}: not a poir-mjx checkpoint ({type(e).__name__}: {e}){damaged}") from e
     if not isinstance(blob, dict):
         raise CheckpointError(f"{path}: not a poir-mjx checkpoint (no field 'format')")
     got = blob.get("format")

@@ -127,3 +127,22 @@ def test_format_tag_and_unreadable_files(tmp_path):
         codec.read(tmp_path / "none.ckpt", FMT)
     with pytest.raises(CheckpointError, match="is a directory"):
         codec.read(tmp_path, FMT)
+
+
+def test_a_damaged_file_is_refused_by_its_checksum(tmp_path):
+    """64 bytes flipped mid-file (they once loaded silently as expert states up to 3.8e17) or a truncated file."""
+    import numpy as np
+
+    from poir_mjx import checkpoint_codec as codec
+
+    path = codec.write(tmp_path / "c.ckpt", "t/1", {"x": codec.state_dict({"a": np.arange(4096, dtype=np.float32)})})
+    assert codec.read(path, "t/1")["format"] == "t/1"
+    raw = bytearray(path.read_bytes())
+    mid = len(raw) // 2
+    raw[mid : mid + 64] = bytes(b ^ 0xFF for b in raw[mid : mid + 64])
+    path.write_bytes(bytes(raw))
+    with pytest.raises(codec.CheckpointError, match="field 'sha256' does not match the content; the file is damaged"):
+        codec.read(path, "t/1")
+    path.write_bytes(bytes(raw[: len(raw) // 3]))
+    with pytest.raises(codec.CheckpointError, match="delete it and it is made again"):
+        codec.read(path, "t/1")
