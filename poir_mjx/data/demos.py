@@ -168,6 +168,10 @@ def robosuite_success(task: str, episodes: int, seed: int, sigma_init: float) ->
 def run_generate(opts: DemosGenerate) -> int:
     if opts.num <= 0 or opts.batch <= 0:
         raise ConfigError(f"--num and --batch: must be positive, got {opts.num} and {opts.batch}")
+    if not (np.isfinite(opts.sigma_init) and opts.sigma_init >= 0):
+        raise ConfigError(f"--sigma-init: must be finite and >= 0, got {opts.sigma_init}")
+    if Path(opts.out).exists() and not Path(opts.out).is_dir():
+        raise ConfigError(f"--out: {opts.out} is a file, expected a folder for the HDF5 files")
     for task in opts.tasks:
         generate(task, opts.num, opts.seed, opts.sigma_init, opts.out, simulator=opts.simulator, batch=opts.batch)
     return 0

@@ -125,7 +125,17 @@ def read_cell(path: Path, chash: str) -> dict | None:
         raise ConfigError(f"{path}: not a readable cell record ({e}); delete it to recompute the cell") from None
     if not isinstance(rec, dict):
         raise ConfigError(f"{path}: not a cell record (expected a JSON object); delete it to recompute the cell")
-    return rec if rec.get("config_hash") == chash else None
+    if rec.get("config_hash") != chash:
+        return None
+    n, k = rec.get("episodes"), rec.get("successes")
+    for name, v in (("episodes", n), ("successes", k), ("diverged", rec.get("diverged", 0))):
+        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+            raise ConfigError(f"{path}: field '{name}' must be a count (an integer >= 0), got {v!r}; "
+                              "delete the file to recompute the cell")  # fmt: skip
+    if k > n:
+        raise ConfigError(f"{path}: field 'successes' ({k}) exceeds field 'episodes' ({n}); delete the file to "
+                          "recompute the cell")  # fmt: skip
+    return rec
 
 
 def load_run_agent(run_dir: str | Path, task: str, method: str, seed: int = 0,

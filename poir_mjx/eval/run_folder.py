@@ -21,7 +21,7 @@ NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 
 def check_run_name(name: str, source: str) -> str:
     """A run name is a plain folder name: letters, digits, '.', '_', '-', not starting with '.'."""
-    if not isinstance(name, str) or not NAME.match(name) or len(name) > 100:
+    if not isinstance(name, str) or not NAME.fullmatch(name) or len(name) > 100:
         raise ConfigError(f"{source}: field 'name' must be a plain folder name (letters, digits, '.', '_', '-'), got {name!r}")
     return name
 
@@ -41,11 +41,18 @@ def prepare(out: Path, config: dict, replace_config: bool = False, defaults: dic
     recorded = out / "config.json"
     text = json.dumps(config, indent=2, sort_keys=True) + "\n"
     new = json.loads(text)  # as it reads back (tuples become lists)
-    if recorded.is_file():
+    has_cells = (out / "cells").is_dir() and any(p.is_file() for p in (out / "cells").rglob("*.json"))
+    holds_results = has_cells or any(out.glob("*.md"))
+    if not recorded.is_file() and holds_results and not replace_config:
+        raise ConfigError(f"{out}: holds results but no config.json (made by hand, or by an older poir-mjx); "
+                          "use another run name")  # fmt: skip
+    if recorded.is_file() and holds_results:  # a config alone (a refused run's) guards nothing: it is replaced
         try:
             old = json.loads(recorded.read_text())
         except (OSError, json.JSONDecodeError) as e:
-            raise ConfigError(f"{recorded}: unreadable ({e})") from None
+            raise ConfigError(f"{recorded}: unreadable ({e}); delete it if the folder's cells are to be recomputed") from None
+        if not isinstance(old, dict):
+            raise ConfigError(f"{recorded}: not a sweep config (expected a JSON object, got {type(old).__name__})")
         if old == new:
             return
         if isinstance(old, dict) and defaults is not None:

@@ -95,6 +95,9 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
                 if not ok:
                     raise ConfigError(f"{path}: field '{k}' has a {type(x).__name__} item {x!r}, expected {item.__name__}")
             v = tuple(v)
+            dup = sorted({x for x in v if v.count(x) > 1}, key=str)
+            if dup:
+                raise ConfigError(f"{path}: field '{k}' lists {dup[0]!r} more than once")
         elif t is bool and not isinstance(v, bool):
             raise ConfigError(f"{path}: field '{k}' must be true or false, got {v!r}")
         elif t is int and (not isinstance(v, int) or isinstance(v, bool)):
@@ -144,6 +147,8 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
     for name in (m for m in cfg.methods if get_method(m).is_baseline):
         baseline_config(cfg, name, f"{path}: field baseline_overrides")
     for task, f in cfg.demo_files.items():
+        if not isinstance(f, str):
+            raise ConfigError(f"{path}: field 'demo_files.{task}' must be a file path (a string), got {f!r}")
         if task not in TASKS:
             raise ConfigError(f"{path}: field 'demo_files': unknown task {task!r}")
         if task not in cfg.tasks:

@@ -39,7 +39,7 @@ def test_a_replaced_demo_file_gets_another_digest(tmp_path):
         content_digest(path, "lift")
 
 
-@pytest.mark.parametrize("name", ["../../x", "", "a/b", ".hidden", "cpu small"])
+@pytest.mark.parametrize("name", ["../../x", "", "a/b", ".hidden", "cpu small", "run\n"])
 def test_run_names_must_be_plain_folder_names(tmp_path, name):
     with pytest.raises(ConfigError, match="field 'name' must be a plain folder name"):
         load_sweep_config(_config(tmp_path, name=name))
@@ -48,6 +48,8 @@ def test_run_names_must_be_plain_folder_names(tmp_path, name):
 def test_a_different_config_cannot_mix_into_an_existing_run_folder(tmp_path):
     out = tmp_path / "results" / "run"
     run_folder.prepare(out, {"episodes": 10})
+    (out / "cells").mkdir()
+    (out / "cells" / "c.json").write_text("{}")  # a cell made with it
     run_folder.prepare(out, {"episodes": 10})  # the same config again: fine (resume)
     with pytest.raises(ConfigError, match=r"config.json: this run folder was made with a different config \(fields \['episodes'\]\)"):
         run_folder.prepare(out, {"episodes": 20})
@@ -71,6 +73,9 @@ def test_an_unwritable_results_folder_is_refused_before_any_work(tmp_path, capsy
         ({"epochs": -1}, "field 'epochs' must be positive"),
         ({"demo_files": {"pick_place_can": "c.json"}}, "field 'demo_files': task 'pick_place_can' is not in field 'tasks'"),
         ({"demo_files": {"lift": "."}}, r"field 'demo_files.lift': \. is a directory"),
+        ({"demo_files": {"lift": 5}}, r"field 'demo_files.lift' must be a file path \(a string\), got 5"),
+        ({"sigma_init": [0.05, 0.05]}, "field 'sigma_init' lists 0.05 more than once"),
+        ({"methods": ["EBC", "EBC"]}, "field 'methods' lists 'EBC' more than once"),
     ],
 )
 def test_bad_fields_name_the_field(tmp_path, monkeypatch, fields, match):
@@ -121,3 +126,69 @@ def test_other_demo_counts_never_overwrite_the_shared_file(tmp_path):
     assert demo_path("lift", tmp_path).name == "lift.hdf5"
     assert demo_path("lift", tmp_path, "robosuite", 50).name == "lift-n50.hdf5"
     assert demo_path("lift", tmp_path, "mjx", 200).name == "lift-mjx.hdf5"
+
+
+def test_a_published_run_folder_is_never_overwritten_by_another_config(tmp_path):
+    """Tables without a config (made by hand or an older version) are refused; a published run's committed
+    config.json guards it like any run's."""
+    out = tmp_path / "results" / "cpu-small"
+    out.mkdir(parents=True)
+    (out / "lift.md").write_text("| method | ... |\n")
+    with pytest.raises(ConfigError, match="holds results but no config.json"):
+        run_folder.prepare(out, {"episodes": 20})
+    (out / "config.json").write_text(json.dumps({"episodes": 20}))
+    run_folder.prepare(out, {"episodes": 20})  # the published config itself: fine
+    with pytest.raises(ConfigError, match="made with a different config"):
+        run_folder.prepare(out, {"episodes": 5})
+
+
+def test_published_runs_commit_their_config():
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2] / "results"
+    for md in root.glob("*/lift.md"):
+        assert (md.parent / "config.json").is_file(), md.parent
+
+
+def test_a_refused_runs_config_does_not_block_the_corrected_one(tmp_path):
+    out = tmp_path / "run"
+    run_folder.prepare(out, {"episodes": 10})  # then refused later (no cell made)
+    run_folder.prepare(out, {"episodes": 12})  # the corrected config: the folder holds nothing to mix with
+    assert json.loads((out / "config.json").read_text()) == {"episodes": 12}
+
+
+def test_a_config_that_is_not_an_object_is_one_clear_error(tmp_path):
+    out = tmp_path / "run"
+    (out / "cells").mkdir(parents=True)
+    (out / "cells" / "c.json").write_text("{}")
+    (out / "config.json").write_text("[1, 2]")
+    with pytest.raises(ConfigError, match=r"config.json: not a sweep config \(expected a JSON object, got list\)"):
+        run_folder.prepare(out, {"episodes": 10})
+
+
+@pytest.mark.parametrize("fields, match", [
+    ({"successes": 7, "episodes": 5}, "field 'successes' \\(7\\) exceeds field 'episodes' \\(5\\)"),
+    ({"episodes": 5}, "field 'successes' must be a count"),
+    ({"successes": "3", "episodes": 5}, "field 'successes' must be a count"),
+])  # fmt: skip
+def test_a_cell_record_with_bad_counts_is_one_clear_error(tmp_path, fields, match):
+    cell = tmp_path / "cell.json"
+    cell.write_text(json.dumps({"config_hash": "abc", **fields}))
+    with pytest.raises(ConfigError, match=match):
+        read_cell(cell, "abc")
+
+
+def test_demos_generate_checks_its_flags_first(tmp_path, capsys):
+    f = tmp_path / "file"
+    f.write_text("x")
+    for args, msg in ((["--sigma-init", "-1"], "--sigma-init: must be finite and >= 0"),
+                      (["--out", str(f)], "is a file, expected a folder")):  # fmt: skip
+        assert cli.main(["demos", "generate", "--tasks", "lift", *args]) == 2
+        err = capsys.readouterr().err
+        assert msg in err and err.count("\n") == 1
+
+
+def test_eval_checks_its_output_before_evaluating(tmp_path, capsys):
+    assert cli.main(["eval", "--ckpt", str(tmp_path / "none.ckpt"), "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "--out:" in err and "is a directory, expected a file name" in err
