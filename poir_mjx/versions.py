@@ -52,3 +52,17 @@ def simulator_line(simulator: str) -> str:
     from poir_mjx.devices import precision_note
 
     return f"MJX (mujoco-mjx {mjx_version()}, {'float64' if jax.config.jax_enable_x64 else 'float32'}{precision_note()})"
+
+
+def machine_line() -> str:
+    """The processor (its model name where Linux says it) and core count: results may differ between machines."""
+    import os
+    import platform
+
+    model = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            model = next((ln.split(":", 1)[1].strip() for ln in f if ln.startswith("model name")), model)
+    except OSError:
+        pass
+    return f"{model}, {os.cpu_count()} cores"

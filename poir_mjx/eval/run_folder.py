@@ -26,18 +26,23 @@ def check_run_name(name: str, source: str) -> str:
     return name
 
 
+def check_writable(folder: Path, what: str) -> None:
+    """Make `folder` (and its parents) and write a probe file there; else one line naming it."""
+    try:
+        Path(folder).mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(dir=folder, prefix=".write-check.")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise ConfigError(f"{folder}: {what} is not writable ({e.strerror})") from None
+
+
 def prepare(out: Path, config: dict, replace_config: bool = False, defaults: dict | None = None) -> None:
     """Create `out`, check it is writable, and record `config` there (or check it matches the recorded one).
 
     defaults: the config's default values; a field the recorded config lacks (it predates the field) counts as its
     default, so adding a field to the config does not orphan existing run folders."""
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        fd, probe = tempfile.mkstemp(dir=out, prefix=".write-check.")
-        os.close(fd)
-        os.unlink(probe)
-    except OSError as e:
-        raise ConfigError(f"{out}: results folder is not writable ({e.strerror})") from None
+    check_writable(out, "results folder")
     recorded = out / "config.json"
     text = json.dumps(config, indent=2, sort_keys=True) + "\n"
     new = json.loads(text)  # as it reads back (tuples become lists)

@@ -37,7 +37,7 @@ from poir_mjx.eval.report import write_tables
 from poir_mjx.eval.evaluator import episode_keys
 from poir_mjx.eval.run_folder import check_run_name
 from poir_mjx.eval.sweep_config import SweepConfig, load_sweep_config
-from poir_mjx.versions import simulator_line
+from poir_mjx.versions import machine_line, simulator_line, stack
 
 __all__ = ["SweepConfig", "load_sweep_config", "run_sweep"]
 
@@ -49,6 +49,10 @@ def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: 
     out = results_root / check_run_name(cfg.name, "sweep config")
     run_folder.prepare(out, dataclasses.asdict(cfg), replace_config,
                        defaults=dataclasses.asdict(SweepConfig(name=cfg.name)))  # before any work: writable, one config
+    for task in cfg.tasks:  # every folder the run will write, before any work
+        for mname in cfg.methods:
+            run_folder.check_writable(out / "cells" / task / mname, "cell folder")
+        run_folder.check_writable(Path(ckpt_dir) / task, "checkpoints folder")
     grid = [(si, sa) for si in cfg.sigma_init for sa in cfg.sigma_action]
     cells = [(t, m, s) for t in cfg.tasks for m in cfg.methods for s in cfg.seeds]
     total_eps = len(cells) * len(grid) * cfg.episodes
@@ -67,7 +71,7 @@ def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: 
         common = {"task": task, "method": mname, "seed": seed, "episodes": cfg.episodes, "max_steps": cfg.max_steps,
                   "config_hash": chash, "data": prov,
                   "device": f"{jax.devices()[0].platform} x{jax.device_count()}", "x64": bool(jax.config.jax_enable_x64),
-                  "simulator": simulator_line(cfg.simulator)}  # fmt: skip
+                  "simulator": simulator_line(cfg.simulator), "machine": machine_line(), "stack": stack()}  # fmt: skip
         batch = CellBatch(cfg, task, mname, seed, grid, paths, episode_keys(seed, len(grid) * cfg.episodes), chash,
                           common)  # fmt: skip
         if method.is_baseline:

@@ -192,3 +192,17 @@ def test_eval_checks_its_output_before_evaluating(tmp_path, capsys):
     assert cli.main(["eval", "--ckpt", str(tmp_path / "none.ckpt"), "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert "--out:" in err and "is a directory, expected a file name" in err
+
+
+@pytest.mark.parametrize("blocked", ["cells/lift/EBC", "ckpt"])
+def test_unwritable_cell_and_checkpoint_folders_are_refused_before_any_work(tmp_path, capsys, blocked):
+    """A folder the run would write late (a cell's, the checkpoints') is checked first: one line, nothing done."""
+    results, ckpt = tmp_path / "results", tmp_path / "ckpt"
+    target = results / "x" / blocked if blocked.startswith("cells") else ckpt
+    target.parent.mkdir(parents=True, exist_ok=True)
+    target.write_text("a file where the folder must go")
+    rc = cli.main(["sweep", "--config", str(_config(tmp_path)), "--results", str(results), "--checkpoints", str(ckpt),
+                   "--data", str(tmp_path / "data")])  # fmt: skip
+    err = capsys.readouterr().err
+    assert rc == 2 and "is not writable" in err and err.count("\n") == 1
+    assert not (tmp_path / "data").exists()  # no demos were made
