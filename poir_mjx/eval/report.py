@@ -104,18 +104,27 @@ def _task_table(cfg: SweepConfig, task: str, table: dict) -> tuple[str, str]:
                 row.extend([f"{c['k'] / c['n']:.4f}", f"{c['ci'][0]:.4f}", f"{c['ci'][1]:.4f}"])
         md.append(f"| {m} | " + " | ".join(cells) + " |")
         csv.append(m + "," + ",".join(row))
-    return "\n".join(md) + "\n" + _versus_table(cfg, table, cols), "\n".join(csv) + "\n"
+    versus = _versus_table(cfg, table, cols) + _versus_table(cfg, table, cols, "POIR-random", _ranks)
+    return "\n".join(md) + "\n" + versus, "\n".join(csv) + "\n"
 
 
-def _versus_table(cfg: SweepConfig, table: dict, cols: list, reference: str = "EBC") -> str:
-    """Each method's successes minus the reference's on the same (paired) episodes, with the two-sided
-    Fisher exact p of the two counts; empty without the reference or another method."""
-    others = [m for m in cfg.methods if m != reference]
+def _ranks(name: str) -> bool:
+    """A method whose planner ranks its trajectories by a reward (what POIR-random leaves out)."""
+    m = get_method(name)
+    return m.act == "plan" and m.selection == "top_k" and m.use_prior
+
+
+def _versus_table(cfg: SweepConfig, table: dict, cols: list, reference: str = "EBC", which=lambda m: True) -> str:
+    """Each method's (those `which` keeps) successes minus the reference's on the same (paired) episodes, with
+    the two-sided Fisher exact p of the two counts; empty without the reference or another method."""
+    others = [m for m in cfg.methods if m != reference and which(m)]
     if reference not in cfg.methods or not others:
         return ""
     from poir_mjx.eval.episodes import agreement_p_value
 
-    md = ["", f"Versus {reference} on the same episodes: difference in successes (two-sided Fisher exact p).", "",
+    what = {"POIR-random": " (the reward's ranking against random selection of the same planner's trajectories)"}
+    md = ["", f"Versus {reference} on the same episodes{what.get(reference, '')}: difference in successes "
+          "(two-sided Fisher exact p).", "",
           "| method | " + " | ".join(_col(si, sa, cfg) for si, sa in cols) + " |", "|---|" + "---|" * len(cols)]
     for m in others:
         cells = []

@@ -2,7 +2,7 @@
 
 from scipy.stats import fisher_exact
 
-from poir_mjx.eval.report import _versus_table
+from poir_mjx.eval.report import _ranks, _versus_table
 from poir_mjx.eval.sweep_config import SweepConfig
 
 
@@ -17,3 +17,12 @@ def test_versus_table_gives_differences_and_fisher_p():
     assert f"| POIR-DRIL | -10 (p {fisher_exact([[30, 20], [40, 10]]).pvalue:.2g}) | +15 (p {p:.2g}) |" in md
     assert "| POIR-prior | +0 (p 1) | - |" in md
     assert _versus_table(SweepConfig(name="t", methods=("POIR-DRIL", "BC")), table, cols) == ""
+
+
+def test_versus_random_selection_compares_the_ranking_planners_only():
+    cfg = SweepConfig(name="t", methods=("EBC", "POIR-random", "POIR-DRIL", "POIR-prior", "POIR-noprior"),
+                      sigma_init=(0.3,))  # fmt: skip
+    table = {(m, 0.3, 0.0): {"k": k, "n": 50} for m, k in
+             (("EBC", 20), ("POIR-random", 30), ("POIR-DRIL", 25), ("POIR-prior", 20), ("POIR-noprior", 0))}
+    md = _versus_table(cfg, table, [(0.3, 0.0)], "POIR-random", _ranks)
+    assert "| POIR-DRIL | -5 (p" in md and "POIR-prior" not in md and "POIR-noprior" not in md and "| EBC |" not in md
