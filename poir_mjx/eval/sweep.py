@@ -24,6 +24,7 @@ records ``artifacts.py``, the tables ``report.py``, the episodes (MJX or robosui
 from __future__ import annotations
 
 import dataclasses
+import sys
 import time
 from pathlib import Path
 
@@ -37,7 +38,7 @@ from poir_mjx.eval.report import write_tables
 from poir_mjx.eval.evaluator import episode_keys
 from poir_mjx.eval.run_folder import check_run_name
 from poir_mjx.eval.sweep_config import SweepConfig, load_sweep_config
-from poir_mjx.versions import machine_line, simulator_line, stack
+from poir_mjx.versions import machine_line, simulator_line, stack, stack_line
 
 __all__ = ["SweepConfig", "load_sweep_config", "run_sweep"]
 
@@ -53,6 +54,9 @@ def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: 
         for mname in cfg.methods:
             run_folder.check_writable(out / "cells" / task / mname, "cell folder")
         run_folder.check_writable(Path(ckpt_dir) / task, "checkpoints folder")
+    if progress:  # once, what runs (the known import-time warnings are silenced: poir_mjx/quiet.py)
+        print(f"sweep {cfg.name}: evaluation in {simulator_line(cfg.simulator)}; {stack_line()}; {machine_line()}",
+              file=sys.stderr, flush=True)  # fmt: skip
     grid = [(si, sa) for si in cfg.sigma_init for sa in cfg.sigma_action]
     cells = [(t, m, s) for t in cfg.tasks for m in cfg.methods for s in cfg.seeds]
     total_eps = len(cells) * len(grid) * cfg.episodes
