@@ -15,6 +15,7 @@ stepping once it succeeds (the success is counted) or its physics stops being fi
 from __future__ import annotations
 
 import functools
+import os
 
 import jax
 import jax.numpy as jnp
@@ -64,6 +65,7 @@ def run(task, policy_fn, params, keys, sigma_init, sigma_action, steps, workers,
     si = np.broadcast_to(np.asarray(sigma_init, np.float64), (n,))
     sa = np.broadcast_to(np.asarray(sigma_action, np.float64), (n,))
     seeds, step_keys = episode_streams(keys, steps)
+    workers = workers or os.cpu_count() or 1  # 0: one per core
     envs_per_worker = max(1, min(envs_per_worker, -(-n // workers)))
     workers = max(1, min(workers, -(-n // envs_per_worker)))
     out = _Episodes(n, steps, record)

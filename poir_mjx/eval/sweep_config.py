@@ -50,7 +50,8 @@ class SweepConfig:
     the agent's calls batched across them; needs robosuite; online methods collect where
     `online.simulator` says, by default here too)."""
     workers: int = 2
-    """robosuite worker processes when simulator is "robosuite" (about one per CPU core)."""
+    """robosuite worker processes when simulator is "robosuite" (0: one per CPU core); each holds up to 16
+    environments, as many as the episodes need."""
     device: str = "any"
     """"gpu" refuses to run unless jax sees a GPU (no silent CPU run), "cpu" forces the CPU, "any" takes jax's default."""
     demo_files: dict = dataclasses.field(default_factory=dict)
@@ -126,9 +127,11 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
         raise ConfigError(f"{path}: field 'simulator' must be \"mjx\" or \"robosuite\", got {cfg.simulator!r}")
     if cfg.device not in ("any", "cpu", "gpu"):
         raise ConfigError(f"{path}: field 'device' must be \"any\", \"cpu\" or \"gpu\", got {cfg.device!r}")
-    for fld in ("episodes", "max_steps", "num_demos", "demo_batch", "workers"):
+    for fld in ("episodes", "max_steps", "num_demos", "demo_batch"):
         if getattr(cfg, fld) <= 0:
             raise ConfigError(f"{path}: field '{fld}' must be positive")
+    if cfg.workers < 0:
+        raise ConfigError(f"{path}: field 'workers' must be positive (or 0: one per CPU core), got {cfg.workers}")
     if cfg.epochs < 0:
         raise ConfigError(f"{path}: field 'epochs' must be positive (or 0: the preset's), got {cfg.epochs}")
     try:
