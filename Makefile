@@ -39,7 +39,7 @@ SWEEP_ARGS ?=
 # Where `make demos` records the scripted expert: robosuite (MuJoCo C) or mjx (vectorised, no robosuite).
 DEMO_SIM ?= robosuite
 
-.PHONY: help venv envs demos expert-success test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench-robosuite bench sweep sweep-online eval xsim video ablations wheels gpu-check gpu-carry clean
+.PHONY: help venv envs demos expert-success test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench-robosuite bench sweep sweep-online eval xsim video ablations prior-study wheels gpu-check gpu-carry clean
 
 help:
 	@echo "make test       - both dependency sets: the full suite on the CPU set, the current-stack suite (CI runs this)"
@@ -135,6 +135,18 @@ ablations: $(STAMP)
 	$(PY) -m poir_mjx.cli demos generate --tasks lift --sigma-init 0.3 --out data/demos-si0.3
 	for f in experiments/ablations/*.json; do $(PY) -m poir_mjx.cli sweep --config $$f || exit $$?; done
 	$(PY) -m poir_mjx.cli compare results/cpu-ablate-* --out results/ablations.md
+
+# The prior study (docs/results-prior.md): the BC prior's training space alone on both demo sets, the grids with the
+# controls, the 'excess' rewards; then one table of the prior runs -> results/prior-choice.md.
+PRIOR_RUNS = experiments/prior/cpu-prior-normalized.json experiments/prior/cpu-prior-weighted.json \
+	experiments/prior/cpu-prior-raw.json experiments/prior/cpu-prior-normalized-wide-demos.json \
+	experiments/prior/cpu-prior-weighted-wide-demos.json experiments/prior/cpu-prior-raw-wide-demos.json
+prior-study: $(STAMP)
+	$(PY) -m poir_mjx.cli demos generate --tasks lift --sigma-init 0.3 --out data/demos-si0.3
+	for f in $(PRIOR_RUNS) experiments/cpu-prior-wide-demos.json experiments/cpu-prior.json \
+	  experiments/prior/cpu-prior-excess-wide-demos.json experiments/prior/cpu-prior-excess.json; do \
+	  $(PY) -m poir_mjx.cli sweep --config $$f || exit $$?; done
+	$(PY) -m poir_mjx.cli compare $(patsubst experiments/prior/%.json,results/%,$(PRIOR_RUNS)) --out results/prior-choice.md
 
 xsim: $(STAMP)
 	@test -n "$(CKPT)" || { echo "usage: make xsim CKPT=checkpoints/<task>/<file>.ckpt [EVAL_ARGS='--sigma-init 0.02 0.2 --episodes 20']"; exit 2; }
