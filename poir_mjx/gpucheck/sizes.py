@@ -58,7 +58,7 @@ GPU = Sizes(
 DRY = Sizes(
     env_batches=(1,), env_steps=2,
     planner_preset="cpu-small", planner_batches=(1, 2), planner_calls=2, expert_states=500,
-    e2e_preset="cpu-small", e2e_episodes=2, e2e_steps=4, epochs=2, num_demos=4, demo_batch=2,
+    e2e_preset="cpu-small", e2e_episodes=2, e2e_steps=4, epochs=2, num_demos=6, demo_batch=2,
     sweep_sigma_init=(0.02, 0.4),
     expert_tasks=("lift",), expert_episodes=2, expert_steps=4,
     deadlines=tuple((s, 1800) for s in STAGES), budget_s=3600,
