@@ -54,7 +54,8 @@ def run_all(out: Path, scratch: Path, dry_run: bool, stages: tuple[str, ...] = S
     start, status = time.monotonic(), {}
     for stage in [s for s in STAGES if s in stages]:
         prev = record.read(out, stage)
-        if prev is not None and prev.get("complete") and prev.get("dry_run") == dry_run:
+        same = prev is not None and prev.get("dry_run") == dry_run and prev.get("sizes") == _as_read(sizes)
+        if same and prev.get("complete"):  # measured with these sizes already
             status[stage] = ("complete earlier", 0.0)
             continue
         left = sizes.budget_s - (time.monotonic() - start)
@@ -71,6 +72,13 @@ def run_all(out: Path, scratch: Path, dry_run: bool, stages: tuple[str, ...] = S
         write_summary(out, status, dry_run)
     write_summary(out, status, dry_run)
     return 1 if any(s.startswith("failed") for s, _ in status.values()) else 0
+
+
+def _as_read(sizes) -> dict:
+    """The sizes as a stage file stores them (tuples read back as lists)."""
+    import json
+
+    return json.loads(json.dumps(dataclasses.asdict(sizes)))
 
 
 def write_summary(out: Path, status: dict, dry_run: bool) -> None:
