@@ -11,16 +11,10 @@ import pytest
 from poir_mjx.core import ensemble as ens
 from poir_mjx.core import rewards
 from poir_mjx.core.agent import POIR
-from poir_mjx.core.config import MLPConfig, NormalizerConfig, PlannerConfig, POIRConfig, TrainConfig
-from tests.core.toy import expert_data
+from poir_mjx.core.config import MLPConfig, NormalizerConfig, TrainConfig
+from tests.core.toy import expert_data, tiny_config
 
-CFG = POIRConfig(
-    ensemble_size=3,
-    bc=MLPConfig(layers=2, width=16),
-    world_model=MLPConfig(layers=2, width=16),
-    train=TrainConfig(epochs=4, batch_size=64, learning_rate=3e-3),
-    planner=PlannerConfig(num_trajectories=12, horizon=2, sigma=0.3, top_k=3, reward="dril"),
-)
+CFG = tiny_config()
 OBS = jnp.array([0.3, 0.02], jnp.float32)
 
 

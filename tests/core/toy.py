@@ -14,3 +14,12 @@ def expert_data(n_demos=40, steps=25, seed=0):
             obs.append(s), act.append(a), nxt.append(s2)
             s = s2
     return np.array(obs, np.float32), np.array(act, np.float32), np.array(nxt, np.float32)
+
+
+def tiny_config(k=3, width=16, epochs=4, batch=64, n=12, horizon=2, sigma=0.3, top_k=3, reward="dril"):
+    """A POIR config small enough to train on the point mass in seconds."""
+    from poir_mjx.core.config import MLPConfig, PlannerConfig, POIRConfig, TrainConfig
+
+    return POIRConfig(ensemble_size=k, bc=MLPConfig(layers=2, width=width), world_model=MLPConfig(layers=2, width=width),
+                      train=TrainConfig(epochs=epochs, batch_size=batch, learning_rate=3e-3),
+                      planner=PlannerConfig(num_trajectories=n, horizon=horizon, sigma=sigma, top_k=top_k, reward=reward))  # fmt: skip
