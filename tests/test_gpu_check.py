@@ -61,3 +61,34 @@ def test_dry_run_runs_every_stage_and_a_rerun_skips_them(tmp_path, capsys):
     assert cli.main(["gpu-check", "--dry-run", "--out", str(out), "--scratch", str(scratch)]) == 0
     assert capsys.readouterr().out.count("complete earlier") == 0  # skipped stages print nothing...
     assert "## planner: complete earlier" in (out / "summary.md").read_text()  # ...and say so in the summary
+
+
+def test_e2e_bench_records_its_demos_in_mjx_without_robosuite(monkeypatch):
+    from poir_mjx import optional
+    from poir_mjx.bench import e2e
+
+    monkeypatch.setattr(optional, "has_robosuite", lambda: False)
+    assert e2e.default_demo_simulator() == "mjx"
+    monkeypatch.setattr(optional, "has_robosuite", lambda: True)
+    assert e2e.default_demo_simulator() == "robosuite"
+    assert e2e.default_demo_batch() == 16  # a CPU; 256 on an accelerator
+
+
+def test_benchmarks_keep_the_rows_measured_before_an_interruption(tmp_path, monkeypatch):
+    from poir_mjx.bench import planner
+    from poir_mjx.cli.options import BenchPlanner
+
+    calls = {"n": 0}
+
+    def one(preset, reward, b, calls_, states):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            raise KeyboardInterrupt  # a deadline or a kill mid-benchmark
+        return {"preset": preset, "reward": reward, "batch": b, "ms_per_call": 1.0, "calls_per_s": 1.0,
+                "episode_steps_per_s": 1.0, "N": 1, "H": 1, "K": 1}  # fmt: skip
+
+    monkeypatch.setattr(planner, "bench_one", one)
+    with pytest.raises(KeyboardInterrupt):
+        planner.run(BenchPlanner(out=tmp_path, presets=("cpu-small",), rewards=("dril",), batch_sizes=(1, 2)))
+    rows = json.loads((tmp_path / "planner.json").read_text())["rows"]
+    assert len(rows) == 1 and rows[0]["batch"] == 1 and "| dril | 1 |" in (tmp_path / "planner.md").read_text()
