@@ -2,7 +2,8 @@
 
 Each row is a (run, method): the run's config overrides and demonstration files, then the success
 rate and Wilson interval per (task, sigma_init, sigma_action) cell, read from the run's cell
-records (the cells must exist: run the sweeps first). Runs with the same grid, episodes and seeds
+records made with the run's recorded config (each cell's config hash checked: stale cells are left out and
+counted). Runs with the same grid, episodes and seeds
 share their episode keys, so their rows are paired comparisons.
 """
 
@@ -17,19 +18,35 @@ from poir_mjx.eval.stats import wilson_interval
 
 
 def _read_run(run: Path) -> tuple[dict, list[dict]]:
-    """(recorded sweep config, cell records) of a run folder."""
+    """(recorded sweep config, the cell records made with it) of a run folder: a cell whose config hash is
+    not the one this config gives now (a stale cell, left by an earlier config or version) is left out."""
+    from poir_mjx.eval.artifacts import cell_hash, read_cell
+    from poir_mjx.eval.sweep_config import SweepConfig
+
     cfg_path = run / "config.json"
     if not cfg_path.is_file():
         raise ConfigError(f"{cfg_path}: no such file (not a sweep run folder, or made before run folders recorded their config)")
-    recs = []
+    try:
+        raw = json.loads(cfg_path.read_text())
+        cfg = SweepConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()})
+    except (ValueError, TypeError) as e:
+        raise ConfigError(f"{cfg_path}: not a sweep config of this version ({e})") from None
+    recs, stale = [], 0
     for f in sorted((run / "cells").rglob("*.json")):
         rec = json.loads(f.read_text())
         if not isinstance(rec, dict) or "successes" not in rec:
             raise ConfigError(f"{f}: not a cell record")
+        data = rec.get("data") if isinstance(rec.get("data"), dict) else {}
+        if read_cell(f, cell_hash(cfg, rec.get("task", ""), rec.get("method", ""), data.get("sha256", ""))) is None:
+            stale += 1
+            continue
         recs.append(rec)
     if not recs:
-        raise ConfigError(f"{run}/cells: no cell records; run the sweep first")
-    return json.loads(cfg_path.read_text()), recs
+        why = f"{stale} stale cell(s) only (made with another config or version); rerun the sweep" if stale else "run the sweep first"
+        raise ConfigError(f"{run}/cells: no cell records of its config.json; {why}")
+    if stale:
+        print(f"{run}: {stale} stale cell record(s) left out (made with another config or version)")
+    return raw, recs
 
 
 def compare(runs: list[Path]) -> str:
