@@ -53,7 +53,7 @@ def test_dry_run_runs_every_stage_and_a_rerun_skips_them(tmp_path, capsys):
     assert {r["reward"] for r in rows["planner"]} == {"dril", "l2", "morel"}
     assert all(r["flops_per_call"] and r["flops_per_call"] > 0 for r in rows["planner"])
     assert [r["method"] for r in rows["e2e"]] == ["EBC", "POIR-DRIL"] and rows["e2e"][0]["demo_simulator"] == "mjx"
-    assert {(r["method"], r["episodes"]) for r in rows["sweep"]} == {("EBC", 1), ("POIR-DRIL", 1)}
+    assert {(r["method"], r["episodes"]) for r in rows["sweep"]} == {("EBC", 2), ("POIR-DRIL", 2)}
     assert rows["expert"][0]["task"] == "lift" and rows["expert"][0]["episodes"] == 2
     summary = (out / "summary.md").read_text()
     assert "## env: complete" in summary and "## expert: complete" in summary

@@ -27,10 +27,9 @@ from poir_mjx.data import expert as ex
 from poir_mjx.data import mjx_demos
 from poir_mjx.data.robomimic import ENV_NAMES, write_robomimic
 from poir_mjx.data.expert_episodes import EXPERT_STEPS, robosuite_episode
-from poir_mjx.envs.env import make_env, make_params
+from poir_mjx.envs.env import make_params
 from poir_mjx.envs.tasks import make_robosuite, robosuite_kwargs
 from poir_mjx.optional import require_robosuite
-from poir_mjx.rollout.episode import batched_episodes
 
 SIMULATORS = ("robosuite", "mjx")
 
@@ -129,12 +128,13 @@ def generate(task: str, num: int, seed: int, sigma_init: float, out: Path, progr
 
 
 def mjx_success(task: str, episodes: int, seed: int, sigma_init: float, steps: int | None = None) -> dict:
-    """The expert in MJX: one compiled rollout (lax.scan over steps, vmap over episodes)."""
+    """The expert in MJX: one compiled rollout (lax.scan over steps, vmap over episodes), the one the MJX
+    demos use (compiled once per task, steps and batch)."""
     steps = steps or EXPERT_STEPS[task]
     params = make_params(np.full(episodes, sigma_init), 0.0)
     keys = jax.random.split(jax.random.PRNGKey(seed), episodes)
     t0 = time.perf_counter()
-    res, _ = batched_episodes(make_env(task), mjx_demos.expert_policy(task), steps)(None, keys, params)
+    res, _ = mjx_demos.expert_rollout(task, steps)(None, keys, params)
     first, diverged = np.asarray(res["first_success"]), np.asarray(res["diverged"])
     ok = first >= 0
     return {

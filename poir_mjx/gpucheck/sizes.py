@@ -55,12 +55,15 @@ GPU = Sizes(
     expert_tasks=("pick_place_can", "nut_assembly_square"), expert_episodes=100, expert_steps=0,
     deadlines=(("env", 100), ("planner", 100), ("e2e", 170), ("sweep", 60), ("expert", 120)), budget_s=480,
 )  # fmt: skip
+# The dry run's shapes are tests/eval/test_sweep.py's tiny sweep and MJX demos (4-episode batches of 4 steps,
+# 1 epoch, demos in batches of 2) and its expert rollout is the demos' own: in one pytest process the
+# compiled programs are shared, so the dry run adds few compilations to make test-current.
 DRY = Sizes(
     env_batches=(1,), env_steps=2,
     planner_preset="cpu-small", planner_batches=(1, 2), planner_calls=2, expert_states=500,
-    e2e_preset="cpu-small", e2e_episodes=2, e2e_steps=4, epochs=2, num_demos=6, demo_batch=2,
-    sweep_sigma_init=(0.02, 0.4),
-    expert_tasks=("lift",), expert_episodes=2, expert_steps=4,
+    e2e_preset="cpu-small", e2e_episodes=4, e2e_steps=4, epochs=1, num_demos=6, demo_batch=2,
+    sweep_sigma_init=(0.02, 0.3),
+    expert_tasks=("lift",), expert_episodes=2, expert_steps=0,
     deadlines=tuple((s, 1800) for s in STAGES), budget_s=3600,
 )  # fmt: skip
 
