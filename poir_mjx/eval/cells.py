@@ -54,7 +54,7 @@ class CellBatch:
         n = self.cfg.episodes
         lo, hi = wilson_interval(successes, n)
         si, sa = self.grid[j]
-        rec = {**self.common, "sigma_init": si, "sigma_action": sa, "successes": successes,
+        rec = {**self.common, "episodes": n, "sigma_init": si, "sigma_action": sa, "successes": successes,
                "success_rate": successes / n, "wilson95": [lo, hi], "diverged": diverged, "wall_s": wall}  # fmt: skip
         if lengths is not None:
             rec["mean_episode_length"] = float(np.mean(lengths))
