@@ -37,8 +37,8 @@ def test_l2_is_exact_near_the_data():
     e = (rng.normal(size=(3000, 20)) * 3.0).astype(np.float32)
     q = (e[:200] + rng.normal(size=(200, 20)) * np.geomspace(1e-5, 1e-1, 200)[:, None]).astype(np.float32)
     truth = np_l2(q.astype(np.float64), e.astype(np.float64))
-    for chunk in (512, 4096):
-        got = np.asarray(rewards.l2_reward(jnp.asarray(q), jnp.asarray(e), chunk))
+    for chunk, refine in ((512, 8), (4096, 8), (4096, 1)):
+        got = np.asarray(rewards.l2_reward(jnp.asarray(q), jnp.asarray(e), chunk, refine))
         np.testing.assert_allclose(got, truth, rtol=1e-3, atol=1e-6)
 
 
