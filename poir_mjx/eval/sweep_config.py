@@ -70,8 +70,15 @@ class SweepConfig:
 def load_sweep_config(path: str | Path) -> SweepConfig:
     """Parse and validate a sweep config file; errors name the file and the field."""
     path = Path(path)
+    def no_duplicates(pairs):
+        keys = [k for k, _ in pairs]
+        dup = next((k for k in keys if keys.count(k) > 1), None)
+        if dup is not None:
+            raise ConfigError(f"{path}: field '{dup}' is given more than once")
+        return dict(pairs)
+
     try:
-        raw = json.loads(path.read_text())
+        raw = json.loads(path.read_text(), object_pairs_hook=no_duplicates)
     except FileNotFoundError:
         raise ConfigError(f"{path}: no such config file") from None
     except IsADirectoryError:

@@ -206,3 +206,10 @@ def test_unwritable_cell_and_checkpoint_folders_are_refused_before_any_work(tmp_
     err = capsys.readouterr().err
     assert rc == 2 and "is not writable" in err and err.count("\n") == 1
     assert not (tmp_path / "data").exists()  # no demos were made
+
+
+def test_a_field_given_twice_is_refused(tmp_path):
+    f = tmp_path / "c.json"
+    f.write_text('{"name": "x", "episodes": 5, "tasks": ["lift"], "episodes": 50}')
+    with pytest.raises(ConfigError, match="field 'episodes' is given more than once"):
+        load_sweep_config(f)
