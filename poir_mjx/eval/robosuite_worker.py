@@ -72,7 +72,19 @@ def serve(recv, send, task: str, n_envs: int) -> None:
             env.close()
 
 
+def _die_with_parent() -> None:
+    """Linux: a SIGTERM when the process that started this worker dies (killed sweeps leave no workers)."""
+    import ctypes
+    import signal
+
+    try:
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass  # not Linux: the worker ends at its next read of the closed pipe
+
+
 def main() -> None:
+    _die_with_parent()
     out = os.fdopen(os.dup(1), "wb")  # the message channel; fd 1 then points at stderr
     os.dup2(2, 1)
     inp = sys.stdin.buffer

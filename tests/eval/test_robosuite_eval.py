@@ -57,3 +57,28 @@ def test_episode_streams_match_the_mjx_evaluator_split():
     np.testing.assert_array_equal(np.asarray(step_keys[1]), np.asarray(jax.random.split(k_run, 5)))
     assert seeds[1] == int(jax.random.bits(k_reset, (), jnp.uint32))  # robosuite's seed comes from the reset key
     assert seeds[0] != seeds[1]
+
+
+def test_workers_end_with_a_killed_parent(tmp_path):
+    """A sweep killed with SIGKILL leaves no robosuite worker behind (they used to run on for up to 15 s)."""
+    import os
+    import subprocess
+    import sys
+    import time
+
+    pids = tmp_path / "pids"
+    # the worker is busy building 16 environments (about 10-20 s here) when its parent is killed
+    code = ("import os, sys, time; from poir_mjx.eval import robosuite_eval; "
+            "pool = robosuite_eval.RobosuitePool('lift', workers=1, envs_per_worker=16); "
+            "pool._send([0], [('reset', [(k, 0.0, 0.0) for k in range(16)])]); time.sleep(1); "
+            f"open(r'{pids}', 'w').write(str(pool.procs[0].pid)); os.kill(os.getpid(), 9)")  # fmt: skip
+    subprocess.run([sys.executable, "-c", code], timeout=120)
+    pid = int(pids.read_text())
+    deadline = time.monotonic() + 3
+    while time.monotonic() < deadline:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return
+        time.sleep(0.2)
+    pytest.fail(f"robosuite worker {pid} still running 3 s after its parent was killed")
