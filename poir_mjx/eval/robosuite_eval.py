@@ -5,7 +5,9 @@ robosuite environments (MuJoCo C, robosuite's OSC_POSE controller); at every con
 process calls the compiled, batched policy (``jit(vmap(policy_fn))``) on the gathered observations,
 so the agent code and its per-episode, per-step keys are those of the MJX evaluator
 (``rollout/episode.py``). With ``overlap`` the workers form two groups: one group's actions are
-computed while the other's environments step, so planning and physics run at the same time.
+computed while the other's environments step, so planning and physics run at the same time. By
+default it is on only when a core is left for the planner: on 2 cores with 2 workers it made POIR-DRIL
+collection slower (results/bench/robosuite-e2e.md).
 Per episode: robosuite's reset noise on the arm's joints is ``sigma_init`` (Gaussian), Gaussian
 noise of std ``sigma_action`` is added to every action, and robosuite draws the rest of the reset
 (object pose, Lift's cube size) from a generator seeded by the episode's key. An episode stops
@@ -36,7 +38,7 @@ def episode_streams(keys: jax.Array, steps: int):
 
 def evaluate(task: str, policy_fn, params, keys: jax.Array, sigma_init, sigma_action, steps: int,
              workers: int = 2, envs_per_worker: int = 16, progress: bool = True,
-             overlap: bool = True) -> dict[str, np.ndarray]:  # fmt: skip
+             overlap: bool | None = None) -> dict[str, np.ndarray]:  # fmt: skip
     """Run len(keys) episodes of `steps` control steps in robosuite; the results of ``rollout.sharding.run_batch``.
 
     keys: one PRNG key per episode (raw uint32 [B, 2]); sigma_init / sigma_action: [B].
@@ -47,7 +49,7 @@ def evaluate(task: str, policy_fn, params, keys: jax.Array, sigma_init, sigma_ac
 
 
 def collect(task: str, policy_fn, params, keys: jax.Array, sigma_init, sigma_action, steps: int,
-            workers: int = 2, envs_per_worker: int = 16, progress: bool = False, overlap: bool = True):  # fmt: skip
+            workers: int = 2, envs_per_worker: int = 16, progress: bool = False, overlap: bool | None = None):  # fmt: skip
     """Episodes as ``evaluate`` runs them, with their transitions: (outcome, (obs, action, next_obs, valid)),
     each [B, steps, ...] as the MJX collector (``online/loop.make_collector``) returns them. The action is
     the policy's (before the environment's action noise); valid is False from the step after an
@@ -66,6 +68,8 @@ def run(task, policy_fn, params, keys, sigma_init, sigma_action, steps, workers,
     sa = np.broadcast_to(np.asarray(sigma_action, np.float64), (n,))
     seeds, step_keys = episode_streams(keys, steps)
     workers = workers or os.cpu_count() or 1  # 0: one per core
+    if overlap is None:  # overlapping pays only with a core left for the planner (bench robosuite)
+        overlap = (os.cpu_count() or 1) > workers
     envs_per_worker = max(1, min(envs_per_worker, -(-n // workers)))
     workers = max(1, min(workers, -(-n // envs_per_worker)))
     out = _Episodes(n, steps, record)

@@ -18,7 +18,7 @@ def collected():
     keys = episode_keys(3, 3)
     sigma_init = np.array([0.02, 0.02, 0.5])
     out, trans = robosuite_eval.collect("lift", scripted_lift, None, keys, sigma_init, 0.0, STEPS, workers=2,
-                                        envs_per_worker=1)  # fmt: skip
+                                        envs_per_worker=1, overlap=True)  # fmt: skip
     plain = robosuite_eval.evaluate("lift", scripted_lift, None, keys, sigma_init, 0.0, STEPS, workers=2,
                                     envs_per_worker=2, progress=False, overlap=False)  # fmt: skip
     return keys, sigma_init, out, trans, plain
