@@ -123,10 +123,10 @@ class POIR:
         """The expert data's own DRIL and MOREL disagreement (normalised expert states `s` and actions `a`) at
         ``planner.disagreement_quantile``: what the "excess" rewards subtract."""
         q = self.config.planner.disagreement_quantile
-        levels = {"dril_level": rewards.disagreement_level(self._dril, params, s, q)}
+        levels = {"dril_level": rewards.disagreement_level(_disagreement_fn(self, "dril"), params, s, q)}
         if params.reward_wm is not None:
-            morel = lambda p, x: self._morel(p, x[:, : self.obs_size], x[:, self.obs_size :])  # noqa: E731
-            levels["morel_level"] = rewards.disagreement_level(morel, params, jnp.concatenate([s, a], -1), q)
+            levels["morel_level"] = rewards.disagreement_level(_disagreement_fn(self, "morel"), params,
+                                                               jnp.concatenate([s, a], -1), q)  # fmt: skip
         return levels
 
     # ------------------------------------------------------------------ policies
@@ -148,18 +148,20 @@ class POIR:
 
     # The BC ensemble in the planner's spaces (normalised states in, normalised actions out), whatever
     # space it was trained in (config.bc_space).
+    def _in_planner_spaces(self, params: POIRParams, s_norm: jax.Array, apply) -> jax.Array:
+        """`apply(states)` of the BC heads, fed and read in the planner's normalised spaces."""
+        if self.config.bc_space != "raw":
+            return apply(s_norm)
+        return params.act_norm(apply(params.obs_norm.inverse(s_norm)))
+
     def _bc_all(self, params: POIRParams, s_norm: jax.Array) -> jax.Array:
         """Every head on the same states: [..., ds] -> [K, ..., da] (planner.head_chunk heads at a time)."""
         chunk = self.config.planner.head_chunk
-        if self.config.bc_space != "raw":
-            return ens.apply_all(self.bc_module, params.bc, s_norm, chunk)
-        return params.act_norm(ens.apply_all(self.bc_module, params.bc, params.obs_norm.inverse(s_norm), chunk))
+        return self._in_planner_spaces(params, s_norm, lambda x: ens.apply_all(self.bc_module, params.bc, x, chunk))
 
     def _bc_each(self, params: POIRParams, s_norm: jax.Array) -> jax.Array:
         """Head k on its own states: [K, ..., ds] -> [K, ..., da]."""
-        if self.config.bc_space != "raw":
-            return ens.apply_each(self.bc_module, params.bc, s_norm)
-        return params.act_norm(ens.apply_each(self.bc_module, params.bc, params.obs_norm.inverse(s_norm)))
+        return self._in_planner_spaces(params, s_norm, lambda x: ens.apply_each(self.bc_module, params.bc, x))
 
     def _bc_env_actions(self, params: POIRParams, obs: jax.Array) -> jax.Array:
         """Every head's action for raw observations, in env units (unclipped): [K, da]."""
@@ -258,6 +260,15 @@ class POIR:
             pick = jax.random.choice(jax.random.fold_in(key, 0x5E1EC7), pc.num_trajectories, (pc.top_k,), replace=False)
             return first[pick].mean(0)
         return top_k_mean(ret, first, pc.top_k)
+
+
+@functools.lru_cache(maxsize=32)
+def _disagreement_fn(agent: POIR, reward: str):
+    """jit((params, x) -> disagreement per row), one per agent config and reward: fits share its compilation.
+    x is the normalised state (DRIL) or [state, action] (MOREL)."""
+    if reward == "dril":
+        return jax.jit(lambda p, x: -agent._dril(p, x))
+    return jax.jit(lambda p, x: -agent._morel(p, x[:, : agent.obs_size], x[:, agent.obs_size :]))
 
 
 def top_k_mean(returns: jax.Array, actions: jax.Array, k: int) -> jax.Array:

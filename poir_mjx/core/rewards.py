@@ -74,14 +74,13 @@ def excess(reward: jax.Array, level: jax.Array) -> jax.Array:
     return jnp.minimum(reward + level, 0.0)
 
 
-def disagreement_level(reward_fn, params, inputs: jax.Array, quantile: float, chunk: int = 2048) -> jax.Array:
-    """The `quantile` quantile of the disagreement -reward_fn(params, x) (a DRIL or MOREL reward, [n] for
-    x [n, d]) over the rows of `inputs`, chunk by chunk (one compiled chunk shape, so K x n x d never sits
-    in memory)."""
+def disagreement_level(disagreement_fn, params, inputs: jax.Array, quantile: float, chunk: int = 2048) -> jax.Array:
+    """The `quantile` quantile of disagreement_fn(params, x) (a compiled DRIL or MOREL disagreement, [n] for
+    x [n, d]) over the rows of `inputs`, chunk by chunk (one chunk shape, so K x n x d never sits in memory)."""
     inputs = jnp.asarray(inputs, jnp.float32)
     n = inputs.shape[0]
     chunk = min(chunk, n)
-    fn = jax.jit(lambda p, x: -reward_fn(p, x))
+    fn = disagreement_fn
     parts = []
     for start in range(0, n, chunk):
         x = inputs[start : start + chunk]

@@ -128,11 +128,8 @@ class _Episodes:
             self.next_obs[r, t] = obs[live]
 
     def transitions(self):
-        if not self.record:
-            return None
-        if self.obs is None:  # no step was taken (every episode settled at reset)
-            return None
-        return self.obs, self.act, self.next_obs, self.valid
+        """(obs, action, next_obs, valid), or None if not recorded or no step was taken."""
+        return None if self.obs is None else (self.obs, self.act, self.next_obs, self.valid)
 
 
 def _wave(pool, groups, act, params, obs, rows, real, step_keys, steps, out: _Episodes) -> None:
