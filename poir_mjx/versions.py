@@ -2,7 +2,20 @@
 
 from __future__ import annotations
 
+import contextvars
 from importlib.metadata import PackageNotFoundError, version
+
+_ARGV: contextvars.ContextVar[list[str]] = contextvars.ContextVar("poir_mjx_cli_argv", default=[])
+
+
+def set_command_line(argv: list[str]) -> None:
+    """Called by the command line (``poir_mjx.cli.main``) with its arguments."""
+    _ARGV.set(list(argv))
+
+
+def command_line() -> str:
+    """The command being run, as results record it."""
+    return " ".join(["python -m poir_mjx.cli", *_ARGV.get()])
 
 
 def package_version(name: str) -> str | None:

@@ -8,11 +8,11 @@ import pytest
 
 from poir_mjx import cli
 from poir_mjx.cli import run
-from poir_mjx.cli.flags import dotted
-from poir_mjx.cli.options import DemosGenerate, POIRFlags
+from poir_mjx.flags import dotted
+from poir_mjx.options import DemosGenerate, POIRFlags
 from poir_mjx.cli.parser import Command, parse
 from poir_mjx.core.config import POIRConfig, to_dict
-from poir_mjx.eval.sweep_config import base_config, load_sweep_config
+from poir_mjx.sweep.config import base_config, load_sweep_config
 
 
 def _parse(*argv):
@@ -122,5 +122,5 @@ def test_a_subcommand_is_one_registration(capsys):
     commands = (*cli.COMMANDS, Command("toy", Toy, lambda o: o.level + 40))
     command, opts = parse(commands, cli.GROUPS, ["toy", "--level", "2"], cli.PROG)
     assert command.function()(opts) == 42
-    lazy = Command("sweep", "poir_mjx.cli.options:Sweep", "poir_mjx.cli.run:sweep")
+    lazy = Command("sweep", "poir_mjx.options:Sweep", "poir_mjx.cli.run:sweep")
     assert lazy.options_type() is cli.COMMANDS[0].options_type() and lazy.function() is run.sweep

@@ -17,7 +17,7 @@ def run(code: str, *args) -> subprocess.CompletedProcess:
 def test_models_and_runtime_modules_load_without_robosuite():
     r = run(
         "from poir_mjx.envs.env import load_model\n"
-        "import poir_mjx.eval.sweep, poir_mjx.online.loop, poir_mjx.data.demos, poir_mjx.cli\n"
+        "import poir_mjx.sweep.run, poir_mjx.online.loop, poir_mjx.data.demos, poir_mjx.cli\n"
         "for t in ('lift', 'pick_place_can', 'nut_assembly_square'):\n"
         "    m, meta = load_model(t)\n"
         "    assert m.nmesh >= 1, t\n"

@@ -18,8 +18,8 @@ import jax
 import numpy as np
 
 from poir_mjx.baselines.learner import ExpertData, Learner
-from poir_mjx.eval.evaluator import make_evaluator
-from poir_mjx.online import checkpoint as ock
+from poir_mjx.rollout.evaluator import make_evaluator
+from poir_mjx import run_state as ock
 from poir_mjx.rollout.sharding import run_batch
 
 

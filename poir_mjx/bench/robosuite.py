@@ -20,10 +20,10 @@ import numpy as np
 
 from poir_mjx.atomic import atomic_write_text
 from poir_mjx.bench.env import device_name
-from poir_mjx.cli import command_line
-from poir_mjx.cli.options import BenchRobosuite
+from poir_mjx.versions import command_line
+from poir_mjx.options import BenchRobosuite
 from poir_mjx.eval import robosuite_eval
-from poir_mjx.eval.evaluator import episode_keys
+from poir_mjx.rollout.evaluator import episode_keys
 from poir_mjx.versions import stack_line
 
 
@@ -40,9 +40,9 @@ def bare(task: str, episodes: int, steps: int, workers: int) -> dict:
 
 
 def method_rows(opts: BenchRobosuite, method_name: str, workers: int) -> list[dict]:
-    from poir_mjx.eval.artifacts import demos_for, train_or_load
+    from poir_mjx.sweep.artifacts import demos_for, train_or_load
     from poir_mjx.eval.methods import get_method
-    from poir_mjx.eval.sweep_config import SweepConfig
+    from poir_mjx.sweep.config import SweepConfig
 
     cfg = SweepConfig(name="bench", methods=(method_name,), simulator="robosuite", workers=workers)
     method = get_method(method_name)

@@ -6,18 +6,18 @@
     video --run RUN --method M [--versus M2] --sigma-init S              a cell's episodes as an MP4 (make video)
     envs / demos generate / demos success / bench env|planner|e2e|robosuite        the other make targets
 
-Each subcommand is a frozen dataclass of its options (``poir_mjx/cli/options.py``, or the module that
+Each subcommand is a frozen dataclass of its options (``poir_mjx/options.py``, or the module that
 owns it) and a function taking it; tyro builds the parser from the dataclasses (``--help`` on any
 subcommand lists its flags). Bad input: one line on stderr naming the file or the flag, exit status 2.
 """
 
 from __future__ import annotations
 
-import contextvars
 import sys
 
-from poir_mjx.cli import options as o
+from poir_mjx import options as o
 from poir_mjx.cli.parser import Command, parse
+from poir_mjx.versions import set_command_line
 
 # The registry: adding a subcommand is one line here. The options class and the function may be given as
 # "module:name" strings, imported when the parser is built (the class) or when the subcommand runs (the
@@ -27,8 +27,8 @@ COMMANDS: tuple[Command, ...] = (
     Command("eval", o.Eval, "poir_mjx.cli.evaluate:evaluate"),
     Command("compare", o.Compare, "poir_mjx.cli.run:compare"),
     Command("envs", o.Envs, "poir_mjx.cli.run:envs"),
-    Command("demos generate", o.DemosGenerate, "poir_mjx.data.demos:run_generate"),
-    Command("demos success", o.DemosSuccess, "poir_mjx.data.demos:run_success"),
+    Command("demos generate", o.DemosGenerate, "poir_mjx.cli.demos:run_generate"),
+    Command("demos success", o.DemosSuccess, "poir_mjx.cli.demos:run_success"),
     Command("bench env", o.BenchEnv, "poir_mjx.bench.env:run"),
     Command("bench planner", o.BenchPlanner, "poir_mjx.bench.planner:run"),
     Command("bench e2e", o.BenchE2E, "poir_mjx.bench.e2e:run"),
@@ -43,17 +43,10 @@ GROUPS = {
 }
 PROG = "poir-mjx"
 
-_ARGV: contextvars.ContextVar[list[str]] = contextvars.ContextVar("poir_mjx_cli_argv", default=[])
-
-
-def command_line() -> str:
-    """The command being run, as results record it."""
-    return " ".join(["python -m poir_mjx.cli", *_ARGV.get()])
-
 
 def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    _ARGV.set(argv)
+    set_command_line(argv)
     parsed = parse(COMMANDS, GROUPS, argv, PROG)
     if isinstance(parsed, str):  # a parse error, as one line
         print(f"error: {parsed}", file=sys.stderr)

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import math
 
-from poir_mjx.cli import options
-from poir_mjx.cli.flags import dotted
+from poir_mjx import options
+from poir_mjx.flags import dotted
 from poir_mjx.core.config import ConfigError
 
 
@@ -58,7 +58,7 @@ def table(opts: options.Eval) -> list[str]:
     from poir_mjx.core.config import apply_overrides
     from poir_mjx.envs.layout import obs_groups
     from poir_mjx.eval.episodes import SIMULATORS, agreement_p_value, run_episodes
-    from poir_mjx.eval.evaluator import episode_keys
+    from poir_mjx.rollout.evaluator import episode_keys
     from poir_mjx.eval.methods import UnknownMethodError, get_method
     from poir_mjx.eval.stats import wilson_interval
     from poir_mjx.versions import simulator_line

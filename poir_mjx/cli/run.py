@@ -5,8 +5,8 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from poir_mjx.cli import options
-from poir_mjx.cli.flags import dotted
+from poir_mjx import options
+from poir_mjx.flags import dotted
 from poir_mjx.core.config import apply_overrides
 
 
@@ -14,7 +14,7 @@ def with_flags(cfg, flags: dict):
     """The sweep config with the command line's POIR fields added to its overrides (a flag wins)."""
     if not flags:
         return cfg
-    from poir_mjx.eval.sweep_config import base_config
+    from poir_mjx.sweep.config import base_config
 
     apply_overrides(base_config(cfg), flags, source="command line")  # a bad value: one line naming the field
     return dataclasses.replace(cfg, overrides={**cfg.overrides, **flags})
@@ -22,7 +22,7 @@ def with_flags(cfg, flags: dict):
 
 def sweep(opts: options.Sweep) -> int:
     from poir_mjx.devices import select_device
-    from poir_mjx.eval.sweep import load_sweep_config, run_sweep
+    from poir_mjx.sweep.run import load_sweep_config, run_sweep
 
     cfg = with_flags(load_sweep_config(opts.config), dotted(opts.poir))
     import jax
@@ -36,7 +36,7 @@ def sweep(opts: options.Sweep) -> int:
 
 
 def compare(opts: options.Compare) -> int:
-    from poir_mjx.eval.compare import main as compare_main
+    from poir_mjx.sweep.compare import main as compare_main
 
     return compare_main(list(opts.runs), opts.out)
 

@@ -1,4 +1,5 @@
-"""``make demos``: scripted-expert demonstrations in robomimic's HDF5 layout, and the expert's success rate.
+"""``make demos``: scripted-expert demonstrations in robomimic's HDF5 layout (the commands: ``cli/demos.py``;
+the expert's success rate: ``eval/expert_success.py``).
 
     python -m poir_mjx.cli demos generate --tasks lift --num 200      # -> data/demos/<task>.hdf5
     python -m poir_mjx.cli demos generate --simulator mjx --batch 256 # -> data/demos/<task>-mjx.hdf5
@@ -16,18 +17,12 @@ import json
 import time
 from pathlib import Path
 
-import jax
 import numpy as np
 
-from poir_mjx.atomic import atomic_write_text
-from poir_mjx.cli import command_line
-from poir_mjx.cli.options import DemosGenerate, DemosSuccess
-from poir_mjx.core.config import ConfigError
 from poir_mjx.data import expert as ex
 from poir_mjx.data import mjx_demos
 from poir_mjx.data.robomimic import ENV_NAMES, write_robomimic
-from poir_mjx.data.expert_episodes import EXPERT_STEPS, robosuite_episode
-from poir_mjx.envs.env import make_params
+from poir_mjx.data.expert_episodes import robosuite_episode
 from poir_mjx.envs.tasks import make_robosuite, robosuite_kwargs
 from poir_mjx.optional import require_robosuite
 
@@ -125,87 +120,3 @@ def generate(task: str, num: int, seed: int, sigma_init: float, out: Path, progr
     print(f"wrote {path}: {num} demos, success {len(demos)}/{tried}, length mean {stats['length_mean']:.0f} "
           f"min {stats['length_min']} max {stats['length_max']}, {stats['seconds']:.0f} s")  # fmt: skip
     return path
-
-
-def mjx_success(task: str, episodes: int, seed: int, sigma_init: float, steps: int | None = None) -> dict:
-    """The expert in MJX: one compiled rollout (lax.scan over steps, vmap over episodes), the one the MJX
-    demos use (compiled once per task, steps and batch)."""
-    steps = steps or EXPERT_STEPS[task]
-    params = make_params(np.full(episodes, sigma_init), 0.0)
-    keys = jax.random.split(jax.random.PRNGKey(seed), episodes)
-    t0 = time.perf_counter()
-    res, _ = mjx_demos.expert_rollout(task, steps)(None, keys, params)
-    first, diverged = np.asarray(res["first_success"]), np.asarray(res["diverged"])
-    ok = first >= 0
-    return {
-        "simulator": "MJX",
-        "episodes": episodes,
-        "successes": int(ok.sum()),
-        "diverged": int(diverged.sum()),
-        "length_mean": float(first[ok].mean()) if ok.any() else None,
-        "seconds": time.perf_counter() - t0,
-    }
-
-
-def robosuite_success(task: str, episodes: int, seed: int, sigma_init: float) -> dict:
-    env = make_robosuite(task, seed=seed, initialization_noise={"magnitude": sigma_init, "type": "gaussian"})
-    t0, res = time.perf_counter(), []
-    for k in range(episodes):
-        _, ok, steps, _ = robosuite_episode(task, seed * 100003 + k, sigma_init, env=env)
-        res.append((ok, steps))
-    ok = np.array([r[0] for r in res])
-    lengths = np.array([r[1] for r in res])
-    return {
-        "simulator": "robosuite (MuJoCo C)",
-        "episodes": episodes,
-        "successes": int(ok.sum()),
-        "diverged": 0,
-        "length_mean": float(lengths[ok].mean()) if ok.any() else None,
-        "seconds": time.perf_counter() - t0,
-    }
-
-
-def run_generate(opts: DemosGenerate) -> int:
-    if opts.num <= 0 or opts.batch <= 0:
-        raise ConfigError(f"--num and --batch: must be positive, got {opts.num} and {opts.batch}")
-    if not (np.isfinite(opts.sigma_init) and opts.sigma_init >= 0):
-        raise ConfigError(f"--sigma-init: must be finite and >= 0, got {opts.sigma_init}")
-    if Path(opts.out).exists() and not Path(opts.out).is_dir():
-        raise ConfigError(f"--out: {opts.out} is a file, expected a folder for the HDF5 files")
-    for task in opts.tasks:
-        generate(task, opts.num, opts.seed, opts.sigma_init, opts.out, simulator=opts.simulator, batch=opts.batch)
-    return 0
-
-
-def run_success(opts: DemosSuccess) -> int:
-    if opts.episodes <= 0:
-        raise ConfigError(f"--episodes: must be positive, got {opts.episodes}")
-    rows = []
-    for task in opts.tasks:
-        for sim in opts.simulator:
-            r = (mjx_success if sim == "mjx" else robosuite_success)(task, opts.episodes, opts.seed, opts.sigma_init)
-            rows.append({"task": task, **r})
-            print(f"{task} {sim}: {r['successes']}/{r['episodes']}", flush=True)
-    dev = jax.devices()[0]
-    lines = [
-        "# Scripted expert: success rate",
-        "",
-        "Length: robosuite, the recorded demo (the episode stops 4 steps after the first success); "
-        "MJX, the step of first success.",
-        "",
-        f"Expert: {ex.NAME}; sigma_init {opts.sigma_init}, no action noise, seed {opts.seed}; "
-        f"JAX device {dev.platform} (x64 {jax.config.jax_enable_x64}). Command: `{command_line()}`.",
-        "",
-        "| task | simulator | episodes | successes | success rate | diverged | mean length of successful episodes | wall s |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
-    for r in rows:
-        ln = f"{r['length_mean']:.0f}" if r["length_mean"] is not None else "-"
-        lines.append(f"| {r['task']} | {r['simulator']} | {r['episodes']} | {r['successes']} | "
-                     f"{r['successes'] / r['episodes']:.2f} | {r['diverged']} | {ln} | {r['seconds']:.0f} |")  # fmt: skip
-    table = "\n".join(lines) + "\n"
-    tag = "_".join(opts.simulator)
-    atomic_write_text(opts.out / f"success_{tag}.md", table)
-    atomic_write_text(opts.out / f"success_{tag}.json", json.dumps(rows, indent=2) + "\n")
-    print(table)
-    return 0

@@ -23,6 +23,7 @@ import numpy as np
 from flax import struct
 
 from poir_mjx.envs.rotation import quat_xyzw_to_mat
+from poir_mjx.envs.tasks import grasp_offset
 
 NAME = "poir-mjx scripted expert v1"
 
@@ -80,19 +81,16 @@ def expert_task(task: str, envs_dir: str | None = None) -> ExpertTask:
     axis = d.xmat[hand].reshape(3, 3).T @ d.xaxis[jnt]  # the fingers slide along this axis
     axis = tuple(float(v) for v in axis / np.linalg.norm(axis))
     if task == "lift":
-        return ExpertTask(task, (0, 3), (3, 7), axis, (0.0, 0.0, 0.0), np.pi / 2, (-0.012, -0.002), 0.0, (0.0, 0.0), 0.0, 0.0,
+        return ExpertTask(task, (0, 3), (3, 7), axis, grasp_offset(task, m), np.pi / 2, (-0.012, -0.002), 0.0, (0.0, 0.0), 0.0, 0.0,
                           meta["success"]["table_height"])  # fmt: skip
     if task == "pick_place_can":
         s = meta["success"]
         cx, cy = (s["bin_low"][0] + s["bin_high"][0]) / 2, (s["bin_low"][1] + s["bin_high"][1]) / 2
-        return ExpertTask(task, (7, 10), (10, 14), axis, (0.0, 0.0, 0.0), 0.0, (-0.015, 0.0), 0.015, (cx, cy), s["bin_high"][2] + 0.08,
+        return ExpertTask(task, (7, 10), (10, 14), axis, grasp_offset(task, m), 0.0, (-0.015, 0.0), 0.015, (cx, cy), s["bin_high"][2] + 0.08,
                           s["bin_low"][2] + 0.075, s["bin_low"][2])  # fmt: skip
-    site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "SquareNut_handle_site")
     peg = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, meta["success"]["peg_body"])
     peg_top = float(d.xpos[peg][2] + 0.1)
-    # Grasp 8 mm further out along the handle than its centre, away from the nut's wall.
-    grasp = (float(m.site_pos[site][0]) + 0.008, 0.0, 0.0)
-    return ExpertTask(task, (7, 10), (10, 14), axis, grasp, np.pi, (-0.004, 0.002), 0.002,
+    return ExpertTask(task, (7, 10), (10, 14), axis, grasp_offset(task, m), np.pi, (-0.004, 0.002), 0.002,
                       (float(d.xpos[peg][0]), float(d.xpos[peg][1])), peg_top + 0.07,
                       meta["success"]["max_height"] - 0.03, meta["success"]["max_height"] - 0.05)  # fmt: skip
 

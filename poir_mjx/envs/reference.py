@@ -8,7 +8,7 @@ import time
 import mujoco
 import numpy as np
 
-from poir_mjx.envs.tasks import GRASP_SITE, make_robosuite
+from poir_mjx.envs.tasks import GRASP_SITE, grasp_offset, make_robosuite
 
 
 def qpos_from_robosuite(rs_env, mj_model: mujoco.MjModel) -> np.ndarray:
@@ -78,17 +78,15 @@ def robosuite_grasp_rollout(task: str, mj_model: mujoco.MjModel, seed: int = 0, 
     env = make_robosuite(task, seed=seed)
     obs = env.reset()
     qpos0 = qpos_from_robosuite(env, mj_model)
-    from poir_mjx.data.expert import expert_task
-
     site = env.sim.model.site_name2id(GRASP_SITE[task])
-    grasp_offset = expert_task(task).grasp_offset_obj  # clear of the nut's wall
+    offset = grasp_offset(task, mj_model)  # clear of the nut's wall
     acts, eef, objp, succ, objobs = [], [], [], [], [obs["object-state"].copy()]
     obj_body = int(env.sim.model.site_bodyid[site])
     t0 = time.perf_counter()
     for t in range(steps):
         if t < 45:  # track the grasp point until the gripper closes (objects settle after reset)
             r_obj = env.sim.data.body_xmat[obj_body].reshape(3, 3)
-            target = env.sim.data.body_xpos[obj_body] + r_obj @ np.asarray(grasp_offset)
+            target = env.sim.data.body_xpos[obj_body] + r_obj @ np.asarray(offset)
         yaw = _yaw_error(env.sim, obj_body) if task in ALIGN_TO_OBJECT_Y else 0.0
         a = grasp_and_lift_action(t, obs["robot0_eef_pos"], target, yaw)
         obs, _, _, _ = env.step(a)

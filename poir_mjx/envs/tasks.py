@@ -27,6 +27,21 @@ GRASP_SITE = {
     "pick_place_can": "Can_default_site",
     "nut_assembly_square": "SquareNut_handle_site",
 }
+# How far beyond GRASP_SITE's centre along the object's x axis scripted grasps close (metres): on the
+# nut, 8 mm further out along the handle, clear of the nut's wall.
+GRASP_SITE_X_OFFSET = {"lift": None, "pick_place_can": None, "nut_assembly_square": 0.008}
+
+
+def grasp_offset(task: str, model) -> tuple[float, float, float]:
+    """The grasp point in the frame of the object's body (the body holding ``GRASP_SITE[task]``) of a MuJoCo
+    model of the task: the body's origin, or a point GRASP_SITE_X_OFFSET beyond the site along x."""
+    extra = GRASP_SITE_X_OFFSET[task]
+    if extra is None:
+        return (0.0, 0.0, 0.0)
+    import mujoco
+
+    site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, GRASP_SITE[task])
+    return (float(model.site_pos[site][0]) + extra, 0.0, 0.0)
 
 # Objects whose size robosuite redraws at every reset: Lift's BoxObject("cube", size_min, size_max)
 # in robosuite/environments/manipulation/lift.py (half-sizes in metres, per axis).

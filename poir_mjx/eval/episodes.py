@@ -10,7 +10,7 @@ from poir_mjx.core.agent import POIR
 from poir_mjx.envs.env import make_env, make_params
 from poir_mjx.eval import robosuite_eval
 from poir_mjx.eval.methods import Method
-from poir_mjx.eval.evaluator import make_evaluator
+from poir_mjx.rollout.evaluator import make_evaluator
 from poir_mjx.rollout.sharding import run_batch
 
 SIMULATORS = ("mjx", "robosuite")

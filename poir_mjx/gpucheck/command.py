@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from poir_mjx.cli.options import GpuCheck
+from poir_mjx.options import GpuCheck
 
 
 def run(opts: GpuCheck) -> int:

@@ -14,7 +14,7 @@ def machine() -> dict:
     """The device, its driver, the software and the precision every result names."""
     import jax
 
-    from poir_mjx.cli import command_line
+    from poir_mjx.versions import command_line
     from poir_mjx.versions import stack
 
     d = jax.devices()[0]

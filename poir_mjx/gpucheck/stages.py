@@ -105,7 +105,7 @@ def e2e_stage(sizes: Sizes, rec: Record, scratch: Path) -> None:
 
 
 def sweep_config(sizes: Sizes):
-    from poir_mjx.eval.sweep_config import SweepConfig
+    from poir_mjx.sweep.config import SweepConfig
 
     return SweepConfig(name="gpu-check-lift", preset=sizes.e2e_preset, tasks=("lift",), methods=("EBC", "POIR-DRIL"),
                        sigma_init=sizes.sweep_sigma_init, episodes=sizes.e2e_episodes // len(sizes.sweep_sigma_init),
@@ -114,8 +114,8 @@ def sweep_config(sizes: Sizes):
 
 
 def sweep_stage(sizes: Sizes, rec: Record, scratch: Path) -> None:
-    from poir_mjx.eval.artifacts import cell_path
-    from poir_mjx.eval.sweep import run_sweep
+    from poir_mjx.sweep.artifacts import cell_path
+    from poir_mjx.sweep.run import run_sweep
 
     cfg = sweep_config(sizes)
     t0 = time.perf_counter()
@@ -130,7 +130,7 @@ def sweep_stage(sizes: Sizes, rec: Record, scratch: Path) -> None:
 
 
 def expert_stage(sizes: Sizes, rec: Record, scratch: Path) -> None:
-    from poir_mjx.data.demos import mjx_success
+    from poir_mjx.eval.expert_success import mjx_success
 
     for task in sizes.expert_tasks:
         r = mjx_success(task, sizes.expert_episodes, seed=1, sigma_init=0.02, steps=sizes.expert_steps or None)

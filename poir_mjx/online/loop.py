@@ -32,7 +32,7 @@ from poir_mjx.envs.env import EnvParams
 from poir_mjx.rollout.episode import batched_episodes, stateless
 from poir_mjx.rollout.sharding import replicate, run_sharded
 from poir_mjx.online import buffer as rb
-from poir_mjx.online import checkpoint as ock
+from poir_mjx import run_state as ock
 from poir_mjx.online.finetune import deployment_error, finetune, world_model_targets
 
 

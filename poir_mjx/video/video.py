@@ -26,7 +26,7 @@ from poir_mjx.video.config import SOURCE, VideoConfig, check, default_out
 def cell_episodes(run_cfg, src: Path, cfg: VideoConfig):
     """(keys [B], EnvParams [B]) of the requested episodes of the cell (sigma_init, sigma_action) of the run."""
     from poir_mjx.envs.env import make_params
-    from poir_mjx.eval.evaluator import episode_keys
+    from poir_mjx.rollout.evaluator import episode_keys
 
     grid = [(si, sa) for si in run_cfg.sigma_init for sa in run_cfg.sigma_action]
     j = next((j for j, (si, sa) in enumerate(grid)
@@ -58,7 +58,7 @@ def _recorder(task: str, method, agent, steps: int, x64: bool):
 def record(cfg: VideoConfig, run_cfg, keys, env_params, steps: int, progress: bool) -> list:
     """One ``Recording`` per method shown, all from `keys`."""
     from poir_mjx.compat import enable_x64
-    from poir_mjx.eval.artifacts import load_run_agent
+    from poir_mjx.sweep.artifacts import load_run_agent
     from poir_mjx.video.record import record_episodes
 
     recs = []
@@ -100,7 +100,7 @@ def frames(task: str, names: list[str], recs: list, episodes, si: float, width: 
 
 def render_video(cfg: VideoConfig, progress: bool = True) -> Path:
     """Render `cfg`'s episodes to an MP4 (written atomically) and return its path."""
-    from poir_mjx.eval.sweep_config import load_sweep_config
+    from poir_mjx.sweep.config import load_sweep_config
     from poir_mjx.video.encode import write_mp4
     from poir_mjx.video.render import check_camera, check_gl
 

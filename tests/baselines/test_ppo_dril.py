@@ -18,7 +18,7 @@ from poir_mjx.baselines import dril
 from poir_mjx.baselines.ppo import PPO
 from poir_mjx.baselines.ppo_dril import PPODRIL, PRESETS, Config
 from poir_mjx.core import ensemble
-from poir_mjx.eval.evaluator import make_evaluator
+from poir_mjx.rollout.evaluator import make_evaluator
 from tests.baselines.toy_ppo import DEPLOY, ENV, HORIZON, expert_data
 
 NUM_ENVS = 32

@@ -4,7 +4,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from poir_mjx.eval.evaluator import make_evaluator
+from poir_mjx.rollout.evaluator import make_evaluator
 from tests.baselines import toy
 
 

@@ -19,7 +19,7 @@ import numpy as np
 from poir_mjx.baselines.learner import ExpertData
 from poir_mjx.baselines.offpolicy import LoopConfig
 from poir_mjx.envs.env import make_params
-from poir_mjx.eval.evaluator import make_evaluator
+from poir_mjx.rollout.evaluator import make_evaluator
 from poir_mjx.rollout.episode import batched_episodes, stateless
 from tests.online.toy_env import PointMassEnv
 

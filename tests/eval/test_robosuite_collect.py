@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from poir_mjx.eval import robosuite_eval
-from poir_mjx.eval.evaluator import episode_keys
+from poir_mjx.rollout.evaluator import episode_keys
 from tests.eval.scripted_lift import scripted_lift
 
 pytestmark = pytest.mark.needs_robosuite

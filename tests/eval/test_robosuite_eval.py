@@ -25,7 +25,7 @@ def test_an_episode_is_fixed_by_its_seed_and_sigma_init_moves_the_arm():
 def test_scripted_lift_agrees_with_mjx_within_sampling_error():
     """The same pure policy and episode keys in both simulators: success counts may differ only by chance."""
     from poir_mjx.envs.env import make_env, make_params
-    from poir_mjx.eval.evaluator import episode_keys, make_evaluator
+    from poir_mjx.rollout.evaluator import episode_keys, make_evaluator
     from poir_mjx.rollout.sharding import run_batch
 
     n, steps, sigma_init = 12, 60, 0.3  # a noise level where the policy fails about half the time

@@ -5,8 +5,8 @@ import pytest
 
 from poir_mjx.core.config import ConfigError
 from poir_mjx.eval.stats import wilson_interval
-from poir_mjx.eval.artifacts import cell_hash
-from poir_mjx.eval.sweep_config import base_config, load_sweep_config
+from poir_mjx.sweep.artifacts import cell_hash
+from poir_mjx.sweep.config import base_config, load_sweep_config
 
 
 def test_wilson_interval_known_values():

@@ -15,10 +15,10 @@ import pytest
 
 from poir_mjx.core.config import ConfigError
 from poir_mjx.data.robomimic import write_robomimic
-from poir_mjx.eval import run_folder
-from poir_mjx.eval.artifacts import load_run_agent
-from poir_mjx.eval.evaluator import episode_keys
-from poir_mjx.eval.sweep_config import SweepConfig, load_sweep_config
+from poir_mjx.sweep import run_folder
+from poir_mjx.sweep.artifacts import load_run_agent
+from poir_mjx.rollout.evaluator import episode_keys
+from poir_mjx.sweep.config import SweepConfig, load_sweep_config
 from poir_mjx.video import VideoConfig, render_video
 from poir_mjx.video.config import check
 from poir_mjx.video.encode import read_mp4, write_mp4
@@ -160,7 +160,7 @@ def test_missing_gl_library_is_one_line_and_exit_2(backend, tmp_path):
         pytest.skip("OSMesa is installed here: MUJOCO_GL=osmesa would work")
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY", "PYOPENGL_PLATFORM")}
     env["MUJOCO_GL"] = backend  # glx without a display cannot open a context
-    p = subprocess.run([sys.executable, "-m", "poir_mjx.video", "--run", str(tmp_path)], cwd=ROOT, env=env,
+    p = subprocess.run([sys.executable, "-m", "poir_mjx.cli", "video", "--run", str(tmp_path)], cwd=ROOT, env=env,
                        capture_output=True, text=True, timeout=120)  # fmt: skip
     assert p.returncode == 2, p.stderr
     errors = [line for line in p.stderr.splitlines() if line.strip()]

@@ -16,7 +16,7 @@ from poir_mjx.core.config import ConfigError, POIRConfig, to_dict
 from poir_mjx.data.robomimic import LOW_DIM_KEYS, DatasetError, Transitions, read_transitions
 from poir_mjx.envs.layout import obs_groups
 from poir_mjx.eval.methods import Method, get_method
-from poir_mjx.eval.sweep_config import SweepConfig, base_config, baseline_config, config_dict, short_hash
+from poir_mjx.sweep.config import SweepConfig, base_config, baseline_config, config_dict, short_hash
 
 
 def demos_for(cfg: SweepConfig, task: str, data_dir: Path, progress: bool = True) -> tuple[Transitions, dict]:
@@ -150,7 +150,7 @@ def load_run_agent(run_dir: str | Path, task: str, method: str, seed: int = 0,
     """
     import sys
 
-    from poir_mjx.eval.sweep_config import load_sweep_config
+    from poir_mjx.sweep.config import load_sweep_config
 
     src = Path(run_dir) / "config.json"
     if not src.is_file():

@@ -18,10 +18,10 @@ from poir_mjx.core.agent import POIR
 from poir_mjx.core.config import to_dict
 from poir_mjx.envs.env import make_env, make_params
 from poir_mjx.eval import robosuite_eval
-from poir_mjx.eval.artifacts import read_cell
+from poir_mjx.sweep.artifacts import read_cell
 from poir_mjx.eval.episodes import run_episodes
 from poir_mjx.eval.stats import wilson_interval
-from poir_mjx.eval.sweep_config import SweepConfig, baseline_config
+from poir_mjx.sweep.config import SweepConfig, baseline_config
 
 
 @dataclasses.dataclass(frozen=True)

@@ -13,7 +13,7 @@ from pathlib import Path
 from poir_mjx.core.config import ConfigError, POIRConfig, apply_overrides, check_fields, preset, to_dict
 from poir_mjx.envs.tasks import TASKS
 from poir_mjx.eval.methods import METHODS, get_method
-from poir_mjx.eval.run_folder import check_run_name
+from poir_mjx.sweep.run_folder import check_run_name
 
 
 @dataclasses.dataclass(frozen=True)

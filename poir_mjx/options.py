@@ -11,7 +11,7 @@ from typing import Annotated, Literal, Optional
 
 import tyro
 
-from poir_mjx.cli.flags import flags_type
+from poir_mjx.flags import flags_type
 from poir_mjx.core.config import PRESETS, REWARDS, PlannerConfig, POIRConfig
 from poir_mjx.envs.tasks import TASKS
 

@@ -11,7 +11,7 @@ from poir_mjx.checkpoint_codec import CheckpointError
 from poir_mjx.core import ensemble as ens
 from poir_mjx.core.config import MLPConfig, TrainConfig
 from poir_mjx.online import buffer as rb
-from poir_mjx.online import checkpoint as ock
+from poir_mjx import run_state as ock
 from poir_mjx.online.loop import RunState
 
 

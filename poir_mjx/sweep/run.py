@@ -17,8 +17,9 @@ the trained policy's success (in the sweep's simulator) and its learning curve (
 A cell whose record exists with the same config hash is never recomputed, so a sweep killed at
 any moment and started again with the same command finishes with the same tables.
 
-This module walks the grid; the cell runners are ``cells.py``, the config is ``sweep_config.py``, the data, checkpoints and cell
-records ``artifacts.py``, the tables ``report.py``, the episodes (MJX or robosuite) ``episodes.py``.
+This module walks the plan (``plan.py``: the grid, config hashes, cell paths, the reader of cell records); the
+cell runners are ``cells.py``, the config ``config.py``, the data, checkpoints and cell records ``artifacts.py``,
+the tables ``report.py`` and ``curves.py``, the episodes (MJX or robosuite) ``poir_mjx/eval/episodes.py``.
 """
 
 from __future__ import annotations
@@ -30,14 +31,15 @@ from pathlib import Path
 
 import jax
 
-from poir_mjx.eval import run_folder
-from poir_mjx.eval.artifacts import cell_hash, cell_path, demos_for, read_cell, train_or_load
-from poir_mjx.eval.cells import CellBatch, run_baseline_cells, run_offline_cells, run_online_cells
+from poir_mjx.sweep import run_folder
+from poir_mjx.sweep.artifacts import demos_for, train_or_load
+from poir_mjx.sweep.cells import CellBatch, run_baseline_cells, run_offline_cells, run_online_cells
 from poir_mjx.eval.methods import get_method
-from poir_mjx.eval.report import write_tables
-from poir_mjx.eval.evaluator import episode_keys
-from poir_mjx.eval.run_folder import check_run_name
-from poir_mjx.eval.sweep_config import SweepConfig, load_sweep_config
+from poir_mjx.sweep.report import write_tables
+from poir_mjx.rollout.evaluator import episode_keys
+from poir_mjx.sweep.run_folder import check_run_name
+from poir_mjx.sweep.config import SweepConfig, load_sweep_config
+from poir_mjx.sweep.plan import SweepPlan
 from poir_mjx.versions import machine_line, simulator_line, stack, stack_line
 
 __all__ = ["SweepConfig", "load_sweep_config", "run_sweep"]
@@ -57,18 +59,17 @@ def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: 
     if progress:  # once, what runs (the known import-time warnings are silenced: poir_mjx/quiet.py)
         print(f"sweep {cfg.name}: evaluation in {simulator_line(cfg.simulator)}; {stack_line()}; {machine_line()}",
               file=sys.stderr, flush=True)  # fmt: skip
-    grid = [(si, sa) for si in cfg.sigma_init for sa in cfg.sigma_action]
-    cells = [(t, m, s) for t in cfg.tasks for m in cfg.methods for s in cfg.seeds]
-    total_eps = len(cells) * len(grid) * cfg.episodes
-    bar = tqdm(total=total_eps, desc=f"sweep {cfg.name}", unit="ep", disable=not progress)
-    t_start, done_now = time.perf_counter(), 0
     demos = {task: demos_for(cfg, task, data_dir, progress) for task in cfg.tasks}  # (transitions, provenance)
-    digests = {task: prov["sha256"] for task, (_, prov) in demos.items()}
-    for task, mname, seed in cells:
+    plan = SweepPlan.build(cfg, out, {task: prov["sha256"] for task, (_, prov) in demos.items()})
+    grid = plan.grid
+    bar = tqdm(total=len(plan.runs()) * len(grid) * cfg.episodes, desc=f"sweep {cfg.name}", unit="ep",
+               disable=not progress)  # fmt: skip
+    t_start, done_now = time.perf_counter(), 0
+    for task, mname, seed in plan.runs():
         method = get_method(mname)
-        chash = cell_hash(cfg, task, mname, digests[task])
-        paths = [cell_path(out, task, mname, si, sa, seed) for si, sa in grid]
-        if all(read_cell(p, chash) for p in paths):
+        cells = plan.cells(task, mname, seed)
+        chash, paths = cells[0].config_hash, [c.path for c in cells]
+        if all(c.record() for c in cells):
             bar.update(len(grid) * cfg.episodes)
             continue
         tr, prov = demos[task]
@@ -91,5 +92,5 @@ def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: 
         bar.update(n)
         bar.set_postfix(eps_per_s=f"{done_now / (time.perf_counter() - t_start):.2f}")
     bar.close()
-    write_tables(cfg, out, digests)
+    write_tables(plan)
     return out

@@ -20,8 +20,8 @@ from poir_mjx.eval.stats import wilson_interval
 def _read_run(run: Path) -> tuple[dict, list[dict]]:
     """(recorded sweep config, the cell records made with it) of a run folder: a cell whose config hash is
     not the one this config gives now (a stale cell, left by an earlier config or version) is left out."""
-    from poir_mjx.eval.artifacts import cell_hash, read_cell
-    from poir_mjx.eval.sweep_config import SweepConfig
+    from poir_mjx.sweep.artifacts import cell_hash, read_cell
+    from poir_mjx.sweep.config import SweepConfig
 
     cfg_path = run / "config.json"
     if not cfg_path.is_file():

@@ -11,9 +11,9 @@ from poir_mjx.atomic import atomic_write_text
 from poir_mjx.core.config import ConfigError
 from poir_mjx.data.demos import demo_path
 from poir_mjx.data.robomimic import DatasetError, read_transitions, write_robomimic
-from poir_mjx.eval import run_folder
-from poir_mjx.eval.artifacts import content_digest, read_cell
-from poir_mjx.eval.sweep_config import load_sweep_config
+from poir_mjx.sweep import run_folder
+from poir_mjx.sweep.artifacts import content_digest, read_cell
+from poir_mjx.sweep.config import load_sweep_config
 from tests.data.test_robomimic import ENV_ARGS, make_demo
 
 BASE = {"name": "x", "tasks": ["lift"], "methods": ["EBC"]}

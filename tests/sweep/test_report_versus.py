@@ -1,9 +1,9 @@
-"""The sweep report's paired comparison with EBC (poir_mjx/eval/report.py)."""
+"""The sweep report's paired comparison with EBC (poir_mjx/sweep/report.py)."""
 
 from scipy.stats import fisher_exact
 
-from poir_mjx.eval.report import _ranks, _versus_table
-from poir_mjx.eval.sweep_config import SweepConfig
+from poir_mjx.sweep.report import _ranks, _versus_table
+from poir_mjx.sweep.config import SweepConfig
 
 
 def test_versus_table_gives_differences_and_fisher_p():

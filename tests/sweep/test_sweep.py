@@ -5,8 +5,8 @@ import json
 import pytest
 
 from poir_mjx import cli
-from poir_mjx.eval import cells
-from poir_mjx.eval import sweep as sw
+from poir_mjx.sweep import cells
+from poir_mjx.sweep import run as sw
 from poir_mjx.optional import has_robosuite
 
 # The CPU set records the demos in robosuite as `make sweep` does; the current set (no robosuite) in

@@ -5,9 +5,9 @@ import json
 import pytest
 
 from poir_mjx import cli
-from poir_mjx.eval.artifacts import cell_hash
-from poir_mjx.eval.compare import compare
-from poir_mjx.eval.sweep_config import SweepConfig
+from poir_mjx.sweep.artifacts import cell_hash
+from poir_mjx.sweep.compare import compare
+from poir_mjx.sweep.config import SweepConfig
 
 
 def _run(root, name, overrides, cells, demo_files=None, stale=()):

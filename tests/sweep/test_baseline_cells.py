@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from poir_mjx.baselines import registry
-from poir_mjx.eval import cells
-from poir_mjx.eval.artifacts import cell_hash, cell_path, read_cell
-from poir_mjx.eval.baseline_report import write_baseline_curves
-from poir_mjx.eval.evaluator import episode_keys
-from poir_mjx.eval.report import _col
-from poir_mjx.eval.sweep_config import SweepConfig
+from poir_mjx.sweep import cells
+from poir_mjx.sweep.artifacts import cell_hash, cell_path, read_cell
+from poir_mjx.sweep.curves import write_baseline_curves
+from poir_mjx.rollout.evaluator import episode_keys
+from poir_mjx.sweep.plan import SweepPlan
+from poir_mjx.sweep.config import SweepConfig
 from tests.baselines.fake import StepLearner
 from tests.online.toy_env import PointMassEnv
 
@@ -70,7 +70,7 @@ def test_each_noise_cell_trains_records_its_curve_and_is_not_redone(toy_sweep):
     before = [p.stat().st_mtime_ns for p in batch.paths]
     cells.run_baseline_cells(batch, Toy(), out / "ckpt", False, done.append)
     assert [p.stat().st_mtime_ns for p in batch.paths] == before  # finished cells are read, not recomputed
-    md = write_baseline_curves(cfg, out, "lift", "digest", _col)
+    md = write_baseline_curves(SweepPlan.build(cfg, out, {"lift": "digest"}), "lift")
     assert "| DAC, σ_init 0 | 0: 0/8; 8: " in md and "24: 8/8" in md
     assert (out / "lift-baselines.png").stat().st_size > 0
 
