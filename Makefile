@@ -92,11 +92,20 @@ test-cpu:
 	.venv/bin/python -m poir_mjx.cli envs --out envs --check
 	JAX_COMPILATION_CACHE_DIR=$(CURDIR)/.cache/jax-cpu .venv/bin/python -m pytest -q --durations=15 tests
 
-# The current set has no robosuite: the reference tests skip themselves with the reason. Every task's MJX
-# step, the planner, MJX demos and a tiny end-to-end sweep run here (tests marked current_stack).
+# The current set (the GPU machine's jax) has no robosuite. It runs what the GPU runs: the tests marked
+# current_stack (every task's MJX step, MJX demos, a tiny end-to-end sweep, the GPU check's dry run) and the
+# POIR core, rollout and online tests; the CPU set runs everything else. One pytest process per group, so
+# one jax CPU crash names its test (-v, no faulthandler dump burying it) and state does not pile up.
+CURRENT_GROUPS := "-m current_stack tests/envs tests/data" "-m current_stack tests/sweep" \
+                  "-m current_stack tests/test_gpu_check.py" \
+                  "-m 'not slow' tests/core tests/rollout tests/online tests/test_layers.py"
 test-current:
 	$(MAKE) STACK=current venv
-	JAX_ENABLE_COMPILATION_CACHE=false .venv-current/bin/python -m pytest -q -m "current_stack or not slow" --durations=15 tests
+	@for group in $(CURRENT_GROUPS); do \
+	  echo "== test-current: pytest $$group"; \
+	  eval JAX_ENABLE_COMPILATION_CACHE=false .venv-current/bin/python -m pytest -v -p no:faulthandler \
+	    --durations=10 $$group || exit 1; \
+	done
 
 test-fast: $(STAMP)
 	$(PY) -m pytest -q -m "not slow" tests

@@ -16,11 +16,9 @@ def write_baseline_curves(plan: SweepPlan, task: str) -> str:
     """Markdown of the baselines' curves and their plot ("" if the sweep has no baseline cells yet)."""
     cfg, out, rows, lines = plan.cfg, plan.out, [], []
     for m, si, sa, recs in plan.results(task, lambda m: get_method(m).is_baseline):
-        steps = [c["env_steps"] for c in recs[0]["curve"]]
-        k = np.sum([[c["successes"] for c in r["curve"]] for r in recs], 0)
-        n = np.sum([[c["episodes"] for c in r["curve"]] for r in recs], 0)
-        rew = [_mean([r["curve"][i]["imitation_reward"] for r in recs]) for i in range(len(steps))]
+        steps, k, n = _success_curve(recs)
         label = f"{m}, {noise_label(si, sa, cfg)}"
+        rew = [_mean([r["curve"][i]["imitation_reward"] for r in recs]) for i in range(len(steps))]
         lines.append((label, steps, k / n, rew))
         rows.append(f"| {label} | " + "; ".join(f"{int(x):,}: {a}/{b}" for x, a, b in zip(steps, k, n))
                     + " | " + ", ".join("-" if np.isnan(r) else f"{r:.3g}" for r in rew) + " |")  # fmt: skip
@@ -33,6 +31,14 @@ def write_baseline_curves(plan: SweepPlan, task: str) -> str:
           "iterations since the previous evaluation). The tables' cells are the final policies in the sweep's "
           "simulator.", "", "| method, cell | env steps: successes/episodes | imitation reward |", "|---|---|---|"]  # fmt: skip
     return "\n".join(md + rows) + "\n"
+
+
+def _success_curve(recs: list[dict]) -> tuple[list[int], np.ndarray, np.ndarray]:
+    """(environment steps, successes, episodes) of the records' learning curves, summed over the seeds."""
+    steps = [c["env_steps"] for c in recs[0]["curve"]]
+    k = np.sum([[c["successes"] for c in r["curve"]] for r in recs], 0)
+    n = np.sum([[c["episodes"] for c in r["curve"]] for r in recs], 0)
+    return steps, k, n
 
 
 def _mean(values) -> float:
@@ -58,13 +64,11 @@ def write_learning_curves(plan: SweepPlan, task: str) -> str:
 
     cfg, out, rows, lines = plan.cfg, plan.out, [], []
     for m, si, sa, recs in plan.results(task, lambda m: get_method(m).online):
-        steps = [c["env_steps"] for c in recs[0]["curve"]]
-        k = np.sum([[c["successes"] for c in r["curve"]] for r in recs], 0)
-        n = np.sum([[c["episodes"] for c in r["curve"]] for r in recs], 0)
+        steps, k, n = _success_curve(recs)
+        label = f"{m}, {noise_label(si, sa, cfg)}"
         r_steps = [x["env_steps"] for x in recs[0]["rounds"]]
         err = np.mean([[x["wm_error"] for x in r["rounds"]] for r in recs], 0)
         err_off = np.mean([[x["wm_error_offline"] for x in r["rounds"]] for r in recs], 0)
-        label = f"{m}, {noise_label(si, sa, cfg)}"
         lines.append((label, steps, k / n, r_steps, err, err_off))
         rows.append(f"| {label} | " + "; ".join(f"{int(x):,}: {a}/{b}" for x, a, b in zip(steps, k, n))
                     + f" | {err[0]:.3g} → {err[-1]:.3g} (offline model {err_off[-1]:.3g}) |")  # fmt: skip
