@@ -26,11 +26,11 @@ from flax import struct
 from poir_mjx.baselines import replay as rp
 from poir_mjx.baselines.learner import ExpertData
 from poir_mjx.baselines.offpolicy import CPU_SMALL_LOOP, LoopConfig, Normalizer, OffPolicyLearner
-from poir_mjx.baselines.offpolicy import check_config, check_unit
 from poir_mjx.baselines.offpolicy import expert_normalizer, wmean
 from poir_mjx.baselines.policy import critic_mlp, init_mlp
 from poir_mjx.baselines.sac import SAC, SACConfig, SACState
 from poir_mjx.baselines.sqil import window_batch
+from poir_mjx.typed_config import check
 
 
 @dataclasses.dataclass(frozen=True)
@@ -55,9 +55,7 @@ class Config:
     """Smallest std of an observation dimension when normalising."""
 
     def validate(self) -> Config:
-        check_config(self)
-        check_unit(self.sac, ("discount",), "sac.", open_top=True)
-        return self
+        return check(self)
 
 
 PRESETS = {

@@ -30,6 +30,7 @@ from poir_mjx.core import ensemble
 from poir_mjx.core.config import MLPConfig, TrainConfig
 from poir_mjx.core.normalizer import Normalizer
 from poir_mjx.core.rewards import dril_reward
+from poir_mjx.typed_config import ConfigError, check
 
 RAW_FLOOR = 10.0  # the "none" reward is bounded below by -RAW_FLOOR
 
@@ -48,6 +49,12 @@ class DrilConfig:
     """Quantile of the expert data's disagreement that separates +1 from -1 (DRIL's code: 0.98)."""
     clip: Literal["sign", "none"] = "sign"
     """"sign": DRIL's +1/-1 reward; "none": -min(d / threshold, 10)."""
+
+    def cross_check(self, prefix: str) -> None:
+        if not 0.0 < self.quantile <= 1.0:
+            raise ConfigError(f"{prefix}quantile: must be in (0, 1], got {self.quantile}")
+        if self.ensemble_size < 2:
+            raise ConfigError(f"{prefix}ensemble_size: must be >= 2 (disagreement), got {self.ensemble_size}")
 
 
 @struct.dataclass
@@ -85,8 +92,7 @@ def reward(cfg: DrilConfig, net: ensemble.MLP, rew: DrilReward, obs, action, nex
 
 def fit(cfg: DrilConfig, key: jax.Array, obs, actions, next_obs, verbose: bool = False) -> DrilReward:
     """Train the BC ensemble on (standardised obs -> standardised action), then set the threshold on the expert data."""
-    if not 0.0 < cfg.quantile <= 1.0:
-        raise ValueError(f"quantile: {cfg.quantile} is not in (0, 1]")
+    check(cfg)
     obs, actions, next_obs = (np.asarray(x, np.float32) for x in (obs, actions, next_obs))
     obs_norm, act_norm = Normalizer.fit(obs), Normalizer.fit(actions)
     net = module(cfg, actions.shape[-1])

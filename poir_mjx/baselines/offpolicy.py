@@ -11,9 +11,7 @@ A method subclasses ``OffPolicyLearner`` and supplies its networks (``init_algo`
 from __future__ import annotations
 
 import dataclasses
-import math
-import typing
-from typing import Any, Callable, Literal
+from typing import Any, Callable
 
 import jax
 import jax.numpy as jnp
@@ -49,6 +47,13 @@ class LoopConfig:
     replay_capacity: int = 3_000_000
     """Agent transitions kept, oldest overwritten first (paper: 3e6 for DAC, 1e6 for SQIL)."""
 
+    ZERO_OK = ("warmup_steps",)
+
+    def cross_check(self, prefix: str) -> None:
+        if self.replay_capacity < self.num_envs:
+            raise ConfigError(f"{prefix}replay_capacity: {self.replay_capacity} holds not one step of "
+                              f"{self.num_envs} envs")  # fmt: skip
+
 
 # The cpu-small loop shared by SQIL, DAC and ValueDICE: seconds-to-minutes on 2 CPU cores (few environments, a small
 # replay, 8 updates per iteration of 8 environment steps).
@@ -81,42 +86,6 @@ class TrainState(struct.PyTreeNode):
     env: vec_env.VecState
     key: jax.Array
     env_steps: jax.Array  # int32 scalar
-
-
-def check_config(cfg, prefix: str = "", zero_ok: tuple[str, ...] = ("warmup_steps",)) -> None:
-    """Integers positive (``zero_ok`` may be 0), numbers finite and >= 0, nested configs recursively;
-    a ConfigError names the dotted field."""
-    hints = typing.get_type_hints(type(cfg))
-    for f in dataclasses.fields(cfg):
-        v, name, t = getattr(cfg, f.name), prefix + f.name, hints[f.name]
-        if dataclasses.is_dataclass(v):
-            check_config(v, name + ".", zero_ok)
-        elif typing.get_origin(t) is Literal:
-            if v not in typing.get_args(t):
-                raise ConfigError(f"{name}: {v!r} is not one of {typing.get_args(t)}")
-        elif t is bool:
-            if not isinstance(v, bool):
-                raise ConfigError(f"{name}: expected a boolean, got {v!r}")
-        elif t is int:
-            if isinstance(v, bool) or not isinstance(v, int):
-                raise ConfigError(f"{name}: expected an integer, got {v!r}")
-            if v < 0 or (v == 0 and f.name not in zero_ok):
-                raise ConfigError(f"{name}: must be positive, got {v}")
-        elif t is float:
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ConfigError(f"{name}: expected a finite number, got {v!r}")
-            if v < 0:
-                raise ConfigError(f"{name}: must be >= 0, got {v}")
-    if isinstance(cfg, LoopConfig) and cfg.replay_capacity < cfg.num_envs:
-        raise ConfigError(f"{prefix}replay_capacity: {cfg.replay_capacity} holds not one step of {cfg.num_envs} envs")
-
-
-def check_unit(cfg, names: tuple[str, ...], prefix: str = "", open_top: bool = False) -> None:
-    """Fields that must lie in [0, 1] ([0, 1) with open_top, e.g. a discount)."""
-    for n in names:
-        v = getattr(cfg, n)
-        if not (0 <= v < 1 if open_top else 0 <= v <= 1):
-            raise ConfigError(f"{prefix}{n}: must be in [0, 1{')' if open_top else ']'}, got {v}")
 
 
 def wmean(x: jax.Array, w: jax.Array) -> jax.Array:

@@ -23,6 +23,7 @@ from poir_mjx.baselines.learner import ExpertData
 from poir_mjx.baselines.ppo import PPO, PPOConfig, PPOState
 from poir_mjx.core.config import MLPConfig, TrainConfig
 from poir_mjx.rollout.protocol import Env
+from poir_mjx.typed_config import ConfigError, check
 
 
 @dataclasses.dataclass(frozen=True)
@@ -43,28 +44,16 @@ class Config:
     """If > 0, the policy mean is first fitted by BC for this many epochs over the expert data (DRIL's code starts
     from its BC policy; the paper does not say, 0 starts PPO from scratch)."""
 
-    def check(self) -> Config:
-        """Raise ValueError naming the field of the first bad value; return self."""
-        for name in ("num_envs", "episode_steps", "total_env_steps", "eval_every"):
-            if getattr(self, name) <= 0:
-                raise ValueError(f"{name}: must be > 0, got {getattr(self, name)}")
-        if self.bc_init_epochs < 0:
-            raise ValueError(f"bc_init_epochs: must be >= 0, got {self.bc_init_epochs}")
-        for name in ("layers", "width", "epochs", "minibatches", "unroll_length", "bc_batch_size"):
-            if getattr(self.ppo, name) <= 0:
-                raise ValueError(f"ppo.{name}: must be > 0, got {getattr(self.ppo, name)}")
+    ZERO_OK = ("bc_init_epochs",)
+
+    def validate(self) -> Config:
+        """Raise a ConfigError naming the field of the first bad value; return self."""
+        return check(self)
+
+    def cross_check(self, prefix: str) -> None:
         if (self.ppo.unroll_length * self.num_envs) % self.ppo.minibatches:
-            raise ValueError(f"ppo.minibatches: {self.ppo.minibatches} does not divide unroll_length x num_envs")
-        if not 0.0 < self.dril.quantile <= 1.0:
-            raise ValueError(f"dril.quantile: must be in (0, 1], got {self.dril.quantile}")
-        if self.dril.ensemble_size < 2:
-            raise ValueError(f"dril.ensemble_size: must be >= 2 (disagreement), got {self.dril.ensemble_size}")
-        for name, value, allowed in (("ppo.activation", self.ppo.activation, ("relu", "tanh", "gelu")),
-                                     ("dril.disagreement", self.dril.disagreement, ("max_pairwise", "action_variance")),
-                                     ("dril.clip", self.dril.clip, ("sign", "none"))):  # fmt: skip
-            if value not in allowed:
-                raise ValueError(f"{name}: {value!r} is not one of {allowed}")
-        return self
+            raise ConfigError(f"{prefix}ppo.minibatches: {self.ppo.minibatches} does not divide unroll_length x "
+                              "num_envs")  # fmt: skip
 
 
 PRESETS = {
@@ -85,7 +74,7 @@ class PPODRIL:
     name = "ppo_dril"
 
     def __init__(self, env: Env, cfg: Config, verbose: bool = False):
-        self.env, self.cfg, self.verbose = env, cfg.check(), verbose
+        self.env, self.cfg, self.verbose = env, cfg.validate(), verbose
         self._ppo: PPO | None = None
         self._net = None
 

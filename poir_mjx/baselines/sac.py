@@ -45,6 +45,8 @@ class SACConfig:
     entropy_scale: float = 1.0
     """Target entropy is -entropy_scale x act_size (SAC's usual -act_size)."""
 
+    OPEN_UNIT = ("discount",)
+
 
 class Batch(struct.PyTreeNode):
     obs: jax.Array  # [B, do]

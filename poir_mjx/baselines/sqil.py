@@ -18,10 +18,10 @@ import jax.numpy as jnp
 from poir_mjx.baselines import replay as rp
 from poir_mjx.baselines.learner import ExpertData
 from poir_mjx.baselines.offpolicy import CPU_SMALL_LOOP, LoopConfig, Normalizer, OffPolicyLearner
-from poir_mjx.baselines.offpolicy import check_config, check_unit
 from poir_mjx.baselines.offpolicy import expert_normalizer
 from poir_mjx.baselines.sac import SAC, Batch, SACConfig
 from poir_mjx.core.config import ConfigError
+from poir_mjx.typed_config import check
 
 
 @dataclasses.dataclass(frozen=True)
@@ -40,11 +40,11 @@ class Config:
     """Smallest std of an observation dimension when normalising."""
 
     def validate(self) -> Config:
-        check_config(self)
-        check_unit(self.sac, ("discount",), "sac.", open_top=True)
+        return check(self)
+
+    def cross_check(self, prefix: str) -> None:
         if not 0 < self.expert_fraction < 1:
-            raise ConfigError(f"expert_fraction: must be in (0, 1), got {self.expert_fraction}")
-        return self
+            raise ConfigError(f"{prefix}expert_fraction: must be in (0, 1), got {self.expert_fraction}")
 
 
 PRESETS = {

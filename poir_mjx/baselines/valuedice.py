@@ -30,8 +30,8 @@ from poir_mjx.baselines import policy
 from poir_mjx.baselines import replay as rp
 from poir_mjx.baselines.learner import ExpertData
 from poir_mjx.baselines.offpolicy import CPU_SMALL_LOOP, LoopConfig, Normalizer, OffPolicyLearner
-from poir_mjx.baselines.offpolicy import check_config, check_unit
 from poir_mjx.baselines.offpolicy import expert_normalizer, wmean
+from poir_mjx.typed_config import check
 
 
 @dataclasses.dataclass(frozen=True)
@@ -65,11 +65,11 @@ class Config:
     obs_std_floor: float = 1e-3
     """Smallest std of an observation dimension when normalising."""
 
+    OPEN_UNIT = ("discount",)
+    UNIT = ("replay_regularization",)
+
     def validate(self) -> Config:
-        check_config(self)
-        check_unit(self, ("discount",), open_top=True)
-        check_unit(self, ("replay_regularization",))
-        return self
+        return check(self)
 
 
 PRESETS = {

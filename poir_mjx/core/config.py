@@ -3,15 +3,14 @@
 from __future__ import annotations
 
 import dataclasses
-import math
-import typing
-from typing import Literal
+from typing import Literal, get_args
 
-REWARDS = ("l2", "dril", "morel")
+from poir_mjx import typed_config
+from poir_mjx.typed_config import ConfigError, check, check_keys
 
-
-class ConfigError(ValueError):
-    """A configuration value is malformed; the message names the field."""
+Reward = Literal["l2", "dril", "morel"]
+REWARDS = get_args(Reward)
+__all__ = ["ConfigError", "POIRConfig", "REWARDS", "check", "check_keys", "from_dict"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -49,7 +48,7 @@ class PlannerConfig:
     top_k: int = 10
     """The returned action averages the first actions of the k best trajectories (k=1: argmax).
     The paper does not state its k; 10 is our choice."""
-    reward: Literal["l2", "dril", "morel"] = "dril"
+    reward: Reward = "dril"
     """Imitation reward: L2 distance to expert states, DRIL (BC disagreement), MOREL (model disagreement)."""
     use_prior: bool = True
     """False gives the ablation 'POIR without BC prior': candidate actions uniform in the bounds."""
@@ -77,6 +76,14 @@ class PlannerConfig:
     transitions, as the DRIL paper's clipped cost: states as certain as the expert's tie)."""
     disagreement_quantile: float = 0.98
     """The quantile of the expert data's own disagreement that "excess" subtracts (DRIL paper: 0.98)."""
+
+    ZERO_OK = ("l2_approx_size", "head_chunk")
+
+    def cross_check(self, prefix: str) -> None:
+        if self.top_k > self.num_trajectories:
+            raise ConfigError(f"{prefix}top_k: {self.top_k} exceeds num_trajectories {self.num_trajectories}")
+        if not 0 < self.disagreement_quantile <= 1:
+            raise ConfigError(f"{prefix}disagreement_quantile: must be in (0, 1], got {self.disagreement_quantile}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -127,6 +134,12 @@ class OnlineConfig:
     the GPU path), "robosuite" (robosuite's workers, the planner batched across the running episodes)
     or "sweep" (the sweep's own simulator). Evaluations run in the sweep's simulator either way."""
 
+    UNIT = ("mix_start", "mix_max")
+
+    def cross_check(self, prefix: str) -> None:
+        if self.updates_per_env_step <= 0:
+            raise ConfigError(f"{prefix}updates_per_env_step: must be > 0, got {self.updates_per_env_step}")
+
 
 @dataclasses.dataclass(frozen=True)
 class POIRConfig:
@@ -158,51 +171,14 @@ class POIRConfig:
     online: OnlineConfig = OnlineConfig()
     """Online fine-tuning (used by the "POIR-<reward> online" methods only)."""
 
+    SIGNED = ("action_low", "action_high")
+
+    def cross_check(self, prefix: str) -> None:
+        if not self.action_low < self.action_high:
+            raise ConfigError(f"{prefix}action_low: must be below action_high")
+
     def validate(self) -> POIRConfig:
-        _validate(self, "")
-        return self
-
-
-def _validate(cfg, prefix):
-    hints = typing.get_type_hints(type(cfg))
-    for f in dataclasses.fields(cfg):
-        v = getattr(cfg, f.name)
-        name = f"{prefix}{f.name}"
-        t = hints[f.name]
-        if dataclasses.is_dataclass(v):
-            _validate(v, name + ".")
-            continue
-        origin = typing.get_origin(t)
-        if origin is Literal:
-            if v not in typing.get_args(t):
-                raise ConfigError(f"{name}: {v!r} is not one of {typing.get_args(t)}")
-        elif t is bool:
-            if not isinstance(v, bool):
-                raise ConfigError(f"{name}: expected a boolean, got {v!r}")
-        elif t is int:
-            if isinstance(v, bool) or not isinstance(v, int):
-                raise ConfigError(f"{name}: expected an integer, got {v!r}")
-            if v < 0 or (v == 0 and f.name not in ("l2_approx_size", "head_chunk")):
-                raise ConfigError(f"{name}: must be positive, got {v}")
-        elif t is float:
-            if isinstance(v, bool) or not isinstance(v, (int, float)):
-                raise ConfigError(f"{name}: expected a number, got {v!r}")
-            if not math.isfinite(v):
-                raise ConfigError(f"{name}: must be finite, got {v!r}")
-            if f.name not in ("action_low", "action_high") and v < 0:
-                raise ConfigError(f"{name}: must be >= 0, got {v}")
-    if isinstance(cfg, POIRConfig) and not cfg.action_low < cfg.action_high:
-        raise ConfigError(f"{prefix}action_low: must be below action_high")
-    if isinstance(cfg, OnlineConfig):
-        for name in ("mix_start", "mix_max"):
-            if getattr(cfg, name) > 1:
-                raise ConfigError(f"{prefix}{name}: a fraction must be in [0, 1], got {getattr(cfg, name)}")
-        if cfg.updates_per_env_step <= 0:
-            raise ConfigError(f"{prefix}updates_per_env_step: must be > 0, got {cfg.updates_per_env_step}")
-    if isinstance(cfg, PlannerConfig) and cfg.top_k > cfg.num_trajectories:
-        raise ConfigError(f"{prefix}top_k: {cfg.top_k} exceeds num_trajectories {cfg.num_trajectories}")
-    if isinstance(cfg, PlannerConfig) and not 0 < cfg.disagreement_quantile <= 1:
-        raise ConfigError(f"{prefix}disagreement_quantile: must be in (0, 1], got {cfg.disagreement_quantile}")
+        return check(self)
 
 
 def to_dict(cfg) -> dict:
@@ -230,30 +206,12 @@ def offline_config(cfg: POIRConfig) -> POIRConfig:
     return dataclasses.replace(cfg, online=OnlineConfig())
 
 
-def check_fields(d: dict, cls, source: str) -> None:
-    """Refuse keys of `d` that are not fields of the dataclass `cls`, naming them and `source`."""
-    unknown = set(d) - {f.name for f in dataclasses.fields(cls)}
-    if unknown:
-        raise ConfigError(f"{source}: unknown field(s) {sorted(unknown)} for {cls.__name__}")
+check_fields = check_keys  # the name the loaders use
 
 
-def from_dict(d: dict, cls=POIRConfig, source: str = "config"):
-    """Build a config from plain data; unknown or mistyped fields raise ConfigError naming them."""
-    if not isinstance(d, dict):
-        raise ConfigError(f"{source}: expected a mapping for {cls.__name__}, got {type(d).__name__}")
-    check_fields(d, cls, source)
-    hints = typing.get_type_hints(cls)
-    kw = {}
-    for k, v in d.items():
-        t = hints[k]
-        kw[k] = from_dict(v, t, f"{source}.{k}") if dataclasses.is_dataclass(t) else v
-    cfg = cls(**kw)
-    if cls is POIRConfig:
-        try:
-            cfg.validate()
-        except ConfigError as e:
-            raise ConfigError(f"{source}: {e}") from None
-    return cfg
+def from_dict(d: dict, cls=None, source: str = "config"):
+    """A POIR config (or `cls`) from plain data, checked (``poir_mjx.typed_config.from_dict``)."""
+    return typed_config.from_dict(d, POIRConfig if cls is None else cls, source)
 
 
 PRESETS: dict[str, POIRConfig] = {

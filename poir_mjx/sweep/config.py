@@ -6,23 +6,30 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import math
 import typing
 from pathlib import Path
+from typing import Literal
 
-from poir_mjx.core.config import ConfigError, POIRConfig, apply_overrides, check_fields, preset, to_dict
+from poir_mjx.core.config import PRESETS, ConfigError, POIRConfig, apply_overrides, preset, to_dict
 from poir_mjx.envs.tasks import TASKS
 from poir_mjx.eval.methods import METHODS, get_method
-from poir_mjx.sweep.run_folder import check_run_name
+from poir_mjx.sweep.run_folder import run_name_problem
+from poir_mjx.typed_config import check, check_keys
+
+Preset = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
+Task = Literal[TASKS]  # type: ignore[valid-type]
+Simulator = Literal["mjx", "robosuite"]
+DemoSimulator = Literal["robosuite", "mjx"]
+Device = Literal["any", "cpu", "gpu"]
 
 
 @dataclasses.dataclass(frozen=True)
 class SweepConfig:
     name: str
     """Run name: results go to results/<name>/."""
-    preset: str = "cpu-small"
+    preset: Preset = "cpu-small"
     """POIR config preset (cpu-small, paper)."""
-    tasks: tuple[str, ...] = ("lift",)
+    tasks: tuple[Task, ...] = ("lift",)
     """Tasks to evaluate."""
     methods: tuple[str, ...] = ("EBC", "POIR-DRIL")
     """Methods from the registry (poir_mjx/eval/methods.py: BC, EBC, POIR-L2, POIR-DRIL, POIR-MOREL, the
@@ -39,12 +46,12 @@ class SweepConfig:
     """Control steps per episode (robosuite's horizon is 400)."""
     num_demos: int = 200
     """Scripted-expert demonstrations per task (ignored for tasks given in demo_files)."""
-    demo_simulator: str = "robosuite"
+    demo_simulator: DemoSimulator = "robosuite"
     """Where the scripted expert records its demos: "robosuite" (MuJoCo C, needs robosuite) or "mjx"
     (vectorised in MJX, no robosuite: the path for a GPU machine)."""
     demo_batch: int = 16
     """MJX episodes per compiled batch when demo_simulator is "mjx" (GPU: 256-1024)."""
-    simulator: str = "mjx"
+    simulator: Simulator = "mjx"
     """Where the evaluation episodes run: "mjx" (vectorised, one compiled rollout: the GPU path) or
     "robosuite" (the reference: robosuite's own environment and controller in `workers` processes,
     the agent's calls batched across them; needs robosuite; online methods collect where
@@ -52,7 +59,7 @@ class SweepConfig:
     workers: int = 2
     """robosuite worker processes when simulator is "robosuite" (0: one per CPU core); each holds up to 16
     environments, as many as the episodes need."""
-    device: str = "any"
+    device: Device = "any"
     """"gpu" refuses to run unless jax sees a GPU (no silent CPU run), "cpu" forces the CPU, "any" takes jax's default."""
     demo_files: dict = dataclasses.field(default_factory=dict)
     """Optional {task: path} of robomimic HDF5 files to use instead of the scripted expert."""
@@ -67,9 +74,38 @@ class SweepConfig:
     """MJX physics in float64 (float32 once launched Square's nut mid-grasp); networks and planner stay float32."""
 
 
+    ZERO_OK = ("seeds", "workers", "epochs")
+
+    def cross_check(self, prefix: str) -> None:
+        if run_name_problem(self.name):
+            raise ConfigError(f"name: {run_name_problem(self.name)}")
+        for m in self.methods:
+            if m not in METHODS:
+                raise ConfigError(f"methods: unknown method {m!r}; expected one of {', '.join(METHODS)}")
+        base_config(self)  # the overrides, named "overrides: <dotted field>: ..."
+        for name, ov in self.baseline_overrides.items():
+            if name not in self.methods or not get_method(name).is_baseline:
+                raise ConfigError(f"baseline_overrides: {name!r} is not a baseline in field 'methods'")
+            if not isinstance(ov, dict):
+                raise ConfigError(f"baseline_overrides.{name}: expected an object, got {ov!r}")
+        for name in (m for m in self.methods if get_method(m).is_baseline):
+            baseline_config(self, name, "baseline_overrides")
+        for task, f in self.demo_files.items():
+            if not isinstance(f, str):
+                raise ConfigError(f"demo_files.{task}: must be a file path (a string), got {f!r}")
+            if task not in TASKS or task not in self.tasks:
+                raise ConfigError(f"demo_files: task {task!r} is not in field 'tasks'")
+            if Path(f).is_dir():
+                raise ConfigError(f"demo_files.{task}: {f} is a directory, expected a robomimic HDF5 file")
+            if not Path(f).is_file():
+                raise ConfigError(f"demo_files.{task}: no such file {f}")
+
+
 def load_sweep_config(path: str | Path) -> SweepConfig:
-    """Parse and validate a sweep config file; errors name the file and the field."""
+    """Parse and validate a sweep config file (``poir_mjx.typed_config``: the field types, then the cross-field
+    rules above); errors name the file and the field: ``<file>: field '<dotted field>': <problem>``."""
     path = Path(path)
+
     def no_duplicates(pairs):
         keys = [k for k, _ in pairs]
         dup = next((k for k in keys if keys.count(k) > 1), None)
@@ -87,87 +123,16 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
         raise ConfigError(f"{path}: not valid JSON ({e})") from None
     if not isinstance(raw, dict):
         raise ConfigError(f"{path}: expected a JSON object")
-    check_fields(raw, SweepConfig, str(path))
-    hints = typing.get_type_hints(SweepConfig)
-    kw = {}
-    for k, v in raw.items():
-        t = hints[k]
-        if typing.get_origin(t) is tuple:
-            if not isinstance(v, list) or not v:
-                raise ConfigError(f"{path}: field '{k}' must be a non-empty list")
-            item = typing.get_args(t)[0]
-            for x in v:
-                ok = isinstance(x, str) if item is str else (isinstance(x, (int, float)) and not isinstance(x, bool))
-                if item is int:
-                    ok = isinstance(x, int) and not isinstance(x, bool)
-                if not ok:
-                    raise ConfigError(f"{path}: field '{k}' has a {type(x).__name__} item {x!r}, expected {item.__name__}")
-            v = tuple(v)
-            dup = sorted({x for x in v if v.count(x) > 1}, key=str)
-            if dup:
-                raise ConfigError(f"{path}: field '{k}' lists {dup[0]!r} more than once")
-        elif t is bool and not isinstance(v, bool):
-            raise ConfigError(f"{path}: field '{k}' must be true or false, got {v!r}")
-        elif t is int and (not isinstance(v, int) or isinstance(v, bool)):
-            raise ConfigError(f"{path}: field '{k}' must be an integer, got {v!r}")
-        elif t is str and not isinstance(v, str):
-            raise ConfigError(f"{path}: field '{k}' must be a string, got {v!r}")
-        elif t is dict and not isinstance(v, dict):
-            raise ConfigError(f"{path}: field '{k}' must be an object")
-        kw[k] = v
-    if "name" not in kw:
+    check_keys(raw, SweepConfig, str(path))
+    if "name" not in raw:
         raise ConfigError(f"{path}: field 'name' is required")
-    check_run_name(kw["name"], str(path))
-    cfg = SweepConfig(**kw)
-    for t in cfg.tasks:
-        if t not in TASKS:
-            raise ConfigError(f"{path}: field 'tasks': unknown task {t!r}; expected one of {', '.join(TASKS)}")
-    for m in cfg.methods:
-        if m not in METHODS:
-            raise ConfigError(f"{path}: field 'methods': unknown method {m!r}; expected one of {', '.join(METHODS)}")
-    for fld in ("sigma_init", "sigma_action"):
-        if not all(math.isfinite(x) and x >= 0 for x in getattr(cfg, fld)):
-            raise ConfigError(f"{path}: field '{fld}': noise levels must be finite and >= 0")
-    if cfg.demo_simulator not in ("robosuite", "mjx"):
-        raise ConfigError(f"{path}: field 'demo_simulator' must be \"robosuite\" or \"mjx\", got {cfg.demo_simulator!r}")
-    if cfg.simulator not in ("mjx", "robosuite"):
-        raise ConfigError(f"{path}: field 'simulator' must be \"mjx\" or \"robosuite\", got {cfg.simulator!r}")
-    if cfg.device not in ("any", "cpu", "gpu"):
-        raise ConfigError(f"{path}: field 'device' must be \"any\", \"cpu\" or \"gpu\", got {cfg.device!r}")
-    for fld in ("episodes", "max_steps", "num_demos", "demo_batch"):
-        if getattr(cfg, fld) <= 0:
-            raise ConfigError(f"{path}: field '{fld}' must be positive")
-    if cfg.workers < 0:
-        raise ConfigError(f"{path}: field 'workers' must be positive (or 0: one per CPU core), got {cfg.workers}")
-    if cfg.epochs < 0:
-        raise ConfigError(f"{path}: field 'epochs' must be positive (or 0: the preset's), got {cfg.epochs}")
+    hints = typing.get_type_hints(SweepConfig)
+    kw = {k: tuple(v) if typing.get_origin(hints[k]) is tuple and isinstance(v, list) else v for k, v in raw.items()}
     try:
-        preset(cfg.preset)
+        return check(SweepConfig(**kw))
     except ConfigError as e:
-        raise ConfigError(f"{path}: field 'preset': {e}") from None
-    try:
-        base_config(cfg)
-    except ConfigError as e:
-        raise ConfigError(f"{path}: field {e}") from None
-    for name, ov in cfg.baseline_overrides.items():
-        if name not in cfg.methods or not get_method(name).is_baseline:
-            raise ConfigError(f"{path}: field 'baseline_overrides': {name!r} is not a baseline in field 'methods'")
-        if not isinstance(ov, dict):
-            raise ConfigError(f"{path}: field 'baseline_overrides.{name}' must be an object")
-    for name in (m for m in cfg.methods if get_method(m).is_baseline):
-        baseline_config(cfg, name, f"{path}: field baseline_overrides")
-    for task, f in cfg.demo_files.items():
-        if not isinstance(f, str):
-            raise ConfigError(f"{path}: field 'demo_files.{task}' must be a file path (a string), got {f!r}")
-        if task not in TASKS:
-            raise ConfigError(f"{path}: field 'demo_files': unknown task {task!r}")
-        if task not in cfg.tasks:
-            raise ConfigError(f"{path}: field 'demo_files': task {task!r} is not in field 'tasks'")
-        if Path(f).is_dir():
-            raise ConfigError(f"{path}: field 'demo_files.{task}': {f} is a directory, expected a robomimic HDF5 file")
-        if not Path(f).is_file():
-            raise ConfigError(f"{path}: field 'demo_files.{task}': no such file {f}")
-    return cfg
+        field, _, problem = str(e).partition(": ")
+        raise ConfigError(f"{path}: field '{field}': {problem}") from None
 
 
 def base_config(cfg: SweepConfig) -> POIRConfig:

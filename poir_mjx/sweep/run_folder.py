@@ -19,10 +19,18 @@ from poir_mjx.core.config import ConfigError
 NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 
 
-def check_run_name(name: str, source: str) -> str:
-    """A run name is a plain folder name: letters, digits, '.', '_', '-', not starting with '.'."""
+def run_name_problem(name) -> str | None:
+    """What is wrong with a run name (None: nothing). A run name is a plain folder name: letters, digits, '.',
+    '_', '-', not starting with '.'."""
     if not isinstance(name, str) or not NAME.fullmatch(name) or len(name) > 100:
-        raise ConfigError(f"{source}: field 'name' must be a plain folder name (letters, digits, '.', '_', '-'), got {name!r}")
+        return f"must be a plain folder name (letters, digits, '.', '_', '-'), got {name!r}"
+    return None
+
+
+def check_run_name(name: str, source: str) -> str:
+    problem = run_name_problem(name)
+    if problem:
+        raise ConfigError(f"{source}: field 'name' {problem}")
     return name
 
 

@@ -87,12 +87,12 @@ def test_plain_ppo_learns_the_toy_with_its_true_reward():
 
 def test_config_errors_name_the_field():
     with pytest.raises(ValueError, match="^ppo.minibatches"):
-        dataclasses.replace(CFG, ppo=dataclasses.replace(CFG.ppo, minibatches=7)).check()
+        dataclasses.replace(CFG, ppo=dataclasses.replace(CFG.ppo, minibatches=7)).validate()
     with pytest.raises(ValueError, match="^dril.quantile"):
-        dataclasses.replace(CFG, dril=dataclasses.replace(CFG.dril, quantile=1.5)).check()
+        dataclasses.replace(CFG, dril=dataclasses.replace(CFG.dril, quantile=1.5)).validate()
     with pytest.raises(ValueError, match="^dril.clip"):
-        dataclasses.replace(CFG, dril=dataclasses.replace(CFG.dril, clip="tanh")).check()
+        dataclasses.replace(CFG, dril=dataclasses.replace(CFG.dril, clip="tanh")).validate()
     with pytest.raises(ValueError, match="^num_envs"):
-        Config(num_envs=0).check()
+        Config(num_envs=0).validate()
     assert PRESETS["paper"].ppo.layers == 5 and PRESETS["paper"].ppo.width == 256
     assert PRESETS["paper"].dril.ensemble_size == 27 and PRESETS["paper"].dril.train.epochs == 10

@@ -41,7 +41,7 @@ def test_a_replaced_demo_file_gets_another_digest(tmp_path):
 
 @pytest.mark.parametrize("name", ["../../x", "", "a/b", ".hidden", "cpu small", "run\n"])
 def test_run_names_must_be_plain_folder_names(tmp_path, name):
-    with pytest.raises(ConfigError, match="field 'name' must be a plain folder name"):
+    with pytest.raises(ConfigError, match="field 'name': must be a plain folder name"):
         load_sweep_config(_config(tmp_path, name=name))
 
 
@@ -70,12 +70,12 @@ def test_an_unwritable_results_folder_is_refused_before_any_work(tmp_path, capsy
 @pytest.mark.parametrize(
     "fields, match",
     [
-        ({"epochs": -1}, "field 'epochs' must be positive"),
+        ({"epochs": -1}, "field 'epochs': must be >= 0, got -1"),
         ({"demo_files": {"pick_place_can": "c.json"}}, "field 'demo_files': task 'pick_place_can' is not in field 'tasks'"),
         ({"demo_files": {"lift": "."}}, r"field 'demo_files.lift': \. is a directory"),
-        ({"demo_files": {"lift": 5}}, r"field 'demo_files.lift' must be a file path \(a string\), got 5"),
-        ({"sigma_init": [0.05, 0.05]}, "field 'sigma_init' lists 0.05 more than once"),
-        ({"methods": ["EBC", "EBC"]}, "field 'methods' lists 'EBC' more than once"),
+        ({"demo_files": {"lift": 5}}, r"field 'demo_files.lift': must be a file path \(a string\), got 5"),
+        ({"sigma_init": [0.05, 0.05]}, "field 'sigma_init': lists 0.05 more than once"),
+        ({"methods": ["EBC", "EBC"]}, "field 'methods': lists 'EBC' more than once"),
     ],
 )
 def test_bad_fields_name_the_field(tmp_path, monkeypatch, fields, match):
