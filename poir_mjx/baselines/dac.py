@@ -25,11 +25,12 @@ from flax import struct
 
 from poir_mjx.baselines import replay as rp
 from poir_mjx.baselines.learner import ExpertData
-from poir_mjx.baselines.offpolicy import CPU_SMALL_LOOP, LoopConfig, Normalizer, OffPolicyLearner
+from poir_mjx.baselines.offpolicy import CPU_SMALL_LOOP, LoopConfig, OffPolicyLearner
 from poir_mjx.baselines.offpolicy import expert_normalizer, wmean
 from poir_mjx.baselines.policy import critic_mlp, init_mlp
 from poir_mjx.baselines.sac import SAC, SACConfig, SACState
 from poir_mjx.baselines.sqil import window_batch
+from poir_mjx.core.normalizer import Normalizer
 from poir_mjx.typed_config import check
 
 

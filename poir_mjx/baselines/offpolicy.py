@@ -22,6 +22,7 @@ from poir_mjx.baselines import policy
 from poir_mjx.baselines import replay as rp
 from poir_mjx.baselines import vec_env
 from poir_mjx.baselines.learner import ExpertData
+from poir_mjx.core.normalizer import Normalizer
 from poir_mjx.core.config import ConfigError
 
 
@@ -62,20 +63,9 @@ CPU_SMALL_LOOP = LoopConfig(num_envs=8, episode_steps=400, total_env_steps=20_00
                             replay_capacity=20_000)  # fmt: skip
 
 
-class Normalizer(struct.PyTreeNode):
-    mean: jax.Array  # [do]
-    std: jax.Array  # [do]
-
-    def __call__(self, obs: jax.Array) -> jax.Array:
-        return (obs - self.mean) / self.std
-
-
 def expert_normalizer(expert: ExpertData, enabled: bool, std_floor: float) -> Normalizer:
     """Mean 0 / std 1 on the expert's observations (std at least ``std_floor``); the identity when not enabled."""
-    obs = np.asarray(expert.obs, np.float32)
-    if not enabled:
-        return Normalizer(jnp.zeros(obs.shape[1], jnp.float32), jnp.ones(obs.shape[1], jnp.float32))
-    return Normalizer(jnp.asarray(obs.mean(0)), jnp.asarray(np.maximum(obs.std(0), max(std_floor, 1e-6))))
+    return Normalizer.fit(np.asarray(expert.obs, np.float32), enabled, std_floor)
 
 
 class TrainState(struct.PyTreeNode):

@@ -17,9 +17,10 @@ import jax.numpy as jnp
 
 from poir_mjx.baselines import replay as rp
 from poir_mjx.baselines.learner import ExpertData
-from poir_mjx.baselines.offpolicy import CPU_SMALL_LOOP, LoopConfig, Normalizer, OffPolicyLearner
+from poir_mjx.baselines.offpolicy import CPU_SMALL_LOOP, LoopConfig, OffPolicyLearner
 from poir_mjx.baselines.offpolicy import expert_normalizer
 from poir_mjx.baselines.sac import SAC, Batch, SACConfig
+from poir_mjx.core.normalizer import Normalizer
 from poir_mjx.core.config import ConfigError
 from poir_mjx.typed_config import check
 
