@@ -18,7 +18,7 @@ import jax
 import numpy as np
 
 from poir_mjx.baselines.learner import ExpertData, Learner
-from poir_mjx.rollout.evaluator import make_evaluator
+from poir_mjx.rollout.evaluator import make_evaluator, success_record
 from poir_mjx import run_state as ock
 from poir_mjx.rollout.sharding import run_batch
 
@@ -69,10 +69,8 @@ def train_baseline(learner: Learner, env, expert: ExpertData, env_params, eval_k
     def evaluate(st, reward) -> dict:
         t0 = time.perf_counter()
         res = run_batch(evaluator, learner.policy_params(st), eval_keys, eval_params)
-        k = int((res["first_success"] >= 0).sum())
-        return {"env_steps": int(learner.env_steps(st)), "successes": k, "episodes": n_eval, "success_rate": k / n_eval,
-                "diverged": int(res["diverged"].sum()), "imitation_reward": reward,
-                "wall_s": time.perf_counter() - t0}  # fmt: skip
+        return {"env_steps": int(learner.env_steps(st)), **success_record(res, time.perf_counter() - t0),
+                "imitation_reward": reward}
 
     def save():
         if path is not None:

@@ -30,6 +30,7 @@ from poir_mjx.core import ensemble as ens
 from poir_mjx.core.agent import POIR, POIRParams
 from poir_mjx.envs.env import EnvParams
 from poir_mjx.rollout.episode import batched_episodes, stateless
+from poir_mjx.rollout.evaluator import success_record
 from poir_mjx.rollout.sharding import replicate, run_sharded
 from poir_mjx.online import buffer as rb
 from poir_mjx import run_state as ock
@@ -226,15 +227,10 @@ class OnlineTrainer:
     def _evaluate(self, inputs: RoundInputs, st: RunState) -> dict:
         """Success of the current world model over the evaluation episodes (the same keys every time)."""
         t0 = time.perf_counter()
-        n_eval = inputs.eval_keys.shape[0]
-        # the collector again (its transitions unused): one compilation when num_envs == n_eval
+        # the collector again (its transitions unused): one compilation when num_envs == the evaluation episodes
         cur = inputs.params.replace(wm=st.wm.params)
         res, _ = self._episodes(self.evaluate_in, cur, inputs.eval_keys, inputs.eval_params, record=False)
-        res = jax.tree_util.tree_map(np.asarray, res)
-        k = int((res["first_success"] >= 0).sum())
-        return {**self.counters(st.round), "successes": k,
-                "episodes": n_eval, "success_rate": k / n_eval, "diverged": int(res["diverged"].sum()),
-                "wall_s": time.perf_counter() - t0}  # fmt: skip
+        return {**self.counters(st.round), **success_record(res, time.perf_counter() - t0)}
 
     def _round(self, inputs: RoundInputs, state: RunState, r: int) -> tuple[RunState, dict]:
         """Round r (0-based): collect num_envs episodes, measure both world models on them, store them, train."""

@@ -7,6 +7,7 @@ grid is one batch.
 from __future__ import annotations
 
 import jax
+import numpy as np
 
 from poir_mjx.rollout.episode import batched_episodes, stateless
 from poir_mjx.rollout.protocol import Env
@@ -22,3 +23,11 @@ def make_evaluator(env: Env, policy_fn, steps: int):
 def episode_keys(seed: int, n: int) -> jax.Array:
     """One key per episode of a cell batch, the same in `sweep` and `eval` (so `eval` reproduces a sweep cell)."""
     return jax.random.split(jax.random.fold_in(jax.random.PRNGKey(seed), 1), n)
+
+
+def success_record(outcomes, seconds: float) -> dict:
+    """A learning curve's evaluation entry from per-episode outcomes (``first_success`` >= 0 is a success):
+    successes, episodes, success_rate, diverged and the evaluation's wall time."""
+    first, diverged = np.asarray(outcomes["first_success"]), np.asarray(outcomes["diverged"])
+    k, n = int((first >= 0).sum()), int(first.shape[0])
+    return {"successes": k, "episodes": n, "success_rate": k / n, "diverged": int(diverged.sum()), "wall_s": seconds}
