@@ -15,7 +15,7 @@ import flax.linen as nn
 import jax
 import jax.numpy as jnp
 
-from poir_mjx.core.ensemble import _ACT
+from poir_mjx.core.ensemble import hidden_layers
 
 LOG_2PI = float(jnp.log(2.0 * jnp.pi))
 
@@ -31,8 +31,7 @@ class PolicyNet(nn.Module):
 
     @nn.compact
     def __call__(self, x):
-        for _ in range(self.layers - 1):
-            x = _ACT[self.activation](nn.Dense(self.width)(x))
+        x = hidden_layers(x, self.layers, self.width, self.activation)
         # a small last layer: the untrained policy's mean is close to 0 whatever the observation
         mean = nn.Dense(self.act_size, kernel_init=nn.initializers.variance_scaling(0.01, "fan_in", "normal"))(x)
         log_std = self.param("log_std", nn.initializers.constant(jnp.log(self.init_std)), (self.act_size,))
@@ -46,8 +45,7 @@ class ValueNet(nn.Module):
 
     @nn.compact
     def __call__(self, x):
-        for _ in range(self.layers - 1):
-            x = _ACT[self.activation](nn.Dense(self.width)(x))
+        x = hidden_layers(x, self.layers, self.width, self.activation)
         return nn.Dense(1)(x)[..., 0]
 
 

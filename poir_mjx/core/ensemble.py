@@ -17,7 +17,15 @@ import optax
 
 from poir_mjx.core.config import MLPConfig, TrainConfig
 
-_ACT = {"relu": nn.relu, "tanh": nn.tanh, "gelu": nn.gelu}
+ACTIVATIONS = {"relu": nn.relu, "tanh": nn.tanh, "gelu": nn.gelu}
+
+
+def hidden_layers(x, layers: int, width: int, activation: str, **dense):
+    """The hidden part of a ``layers``-Dense MLP (all but the output layer), called inside a compact module
+    (its Dense layers are that module's Dense_0, Dense_1, ...); `dense`: nn.Dense's keyword arguments."""
+    for _ in range(layers - 1):
+        x = ACTIVATIONS[activation](nn.Dense(width, **dense)(x))
+    return x
 
 
 class MLP(nn.Module):
@@ -28,8 +36,7 @@ class MLP(nn.Module):
 
     @nn.compact
     def __call__(self, x):
-        for _ in range(self.layers - 1):
-            x = _ACT[self.activation](nn.Dense(self.width, dtype=jnp.float32, param_dtype=jnp.float32)(x))
+        x = hidden_layers(x, self.layers, self.width, self.activation, dtype=jnp.float32, param_dtype=jnp.float32)
         return nn.Dense(self.out, dtype=jnp.float32, param_dtype=jnp.float32)(x)
 
 
@@ -74,6 +81,13 @@ def init_train_state(params, optimizer) -> TrainState:
     return TrainState(params, jax.vmap(optimizer.init)(params))
 
 
+def member_update(optimizer, loss_fn, params, opt_state, *batch):
+    """One optimiser step of one ensemble member on ``loss_fn(params, *batch)``: (params, opt_state, loss)."""
+    loss, g = jax.value_and_grad(loss_fn)(params, *batch)
+    upd, opt_state = optimizer.update(g, opt_state, params)
+    return optax.apply_updates(params, upd), opt_state, loss
+
+
 @functools.partial(jax.jit, static_argnames=("module", "optimizer", "batch_size"))
 def train_epoch(module, optimizer, batch_size: int, state: TrainState, x, y, key, weights=None):
     """One epoch of MSE regression x -> y for every member (own shuffle each); returns (state, mean loss [K]).
@@ -93,9 +107,7 @@ def train_epoch(module, optimizer, batch_size: int, state: TrainState, x, y, key
         return jnp.mean(jnp.sum(w * (module.apply(p, xb) - yb) ** 2, -1))
 
     def member_step(p, o, idx):
-        loss, g = jax.value_and_grad(loss_fn)(p, x[idx], y[idx])
-        upd, o = optimizer.update(g, o, p)
-        return optax.apply_updates(p, upd), o, loss
+        return member_update(optimizer, loss_fn, p, o, x[idx], y[idx])
 
     def body(carry, idx):
         p, o = carry

@@ -12,7 +12,6 @@ import functools
 
 import jax
 import jax.numpy as jnp
-import optax
 
 from poir_mjx.core import ensemble as ens
 from poir_mjx.core.config import OnlineConfig
@@ -67,9 +66,7 @@ def finetune(module, optimizer, cfg: OnlineConfig, batch_size: int, num_steps: i
         x = jnp.where(use_on[:, None], on_x[on], offline_x[off])
         y = jnp.where(use_on[:, None], on_y[on], offline_y[off])
         w = jnp.where(use_on, buf.valid[on], 1.0).astype(x.dtype)
-        loss, g = jax.value_and_grad(loss_fn)(p, x, y, w)
-        upd, o = optimizer.update(g, o, p)
-        return optax.apply_updates(p, upd), o, loss
+        return ens.member_update(optimizer, loss_fn, p, o, x, y, w)
 
     def body(carry, i):
         p, o = carry
