@@ -6,7 +6,7 @@ from poir_mjx.baselines.registry import BASELINES, get_baseline
 from poir_mjx.core.config import ConfigError
 from poir_mjx.eval.methods import get_method
 from poir_mjx.sweep.config import load_sweep_config
-from tests.online.toy_env import PointMassEnv
+from tests.helpers import PointMassEnv
 
 
 @pytest.mark.parametrize("name", list(BASELINES))

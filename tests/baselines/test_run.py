@@ -8,8 +8,8 @@ import numpy as np
 from poir_mjx.baselines.learner import ExpertData
 from poir_mjx.baselines.run import chunk_iterations, expert_data, train_baseline
 from poir_mjx.envs.env import make_params
-from tests.baselines.fake import StepLearner
-from tests.online.toy_env import PointMassEnv
+from tests.helpers import StepLearner
+from tests.helpers import PointMassEnv
 
 ENV = PointMassEnv(drift_y=0.0, horizon=30)
 

@@ -9,7 +9,7 @@ import pytest
 
 from poir_mjx.baselines import vec_env
 from poir_mjx.envs.env import make_params
-from tests.online.toy_env import PointMassEnv
+from tests.helpers import PointMassEnv
 
 
 def _run(vec, steps, action, key=0):

@@ -21,7 +21,7 @@ from poir_mjx.baselines.offpolicy import LoopConfig
 from poir_mjx.envs.env import make_params
 from poir_mjx.rollout.evaluator import make_evaluator
 from poir_mjx.rollout.episode import batched_episodes, stateless
-from tests.online.toy_env import PointMassEnv
+from tests.helpers import PointMassEnv
 
 HORIZON = 15
 DRIFT = 0.03

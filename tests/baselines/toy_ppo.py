@@ -1,4 +1,4 @@
-"""The PPO+DRIL toy: the point mass of tests/online/toy_env.py with a y drift the expert never saw.
+"""The PPO+DRIL toy: the point mass of tests/helpers.py with a y drift the expert never saw.
 
 The expert (recorded without drift) moves +x at 0.05 per step and pulls y back towards 0 (a_y = -0.5 y), so its states
 lie in a thin band |y| < ~0.04 and it reaches x = 1 (success, if |y| < 0.05) at step 20. In deployment a drift of
@@ -13,7 +13,7 @@ import numpy as np
 
 from poir_mjx.baselines.learner import ExpertData
 from poir_mjx.envs.env import make_params
-from tests.online.toy_env import PointMassEnv
+from tests.helpers import PointMassEnv
 
 DRIFT = 0.04
 HORIZON = 30

@@ -10,7 +10,7 @@ from poir_mjx import checkpoint_codec as codec
 from poir_mjx.core import checkpoint
 from poir_mjx.core.agent import POIR
 from poir_mjx.core.config import MLPConfig, PlannerConfig, POIRConfig, TrainConfig
-from tests.core.toy import expert_data
+from tests.helpers import expert_data
 
 CFG = POIRConfig(
     ensemble_size=2,

@@ -60,7 +60,7 @@ def test_training_runs_share_one_compiled_epoch():
     """A fresh fit with the same config and shapes reuses the compiled epoch (one optimizer object per config)."""
     from poir_mjx.core.agent import POIR
     from poir_mjx.core.config import MLPConfig, POIRConfig
-    from tests.core.toy import expert_data
+    from tests.helpers import expert_data
 
     cfg = POIRConfig(ensemble_size=2, bc=MLPConfig(layers=2, width=8), world_model=MLPConfig(layers=2, width=8),
                      train=TrainConfig(epochs=1, batch_size=32, learning_rate=2e-3))  # fmt: skip

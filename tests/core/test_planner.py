@@ -6,18 +6,9 @@ import numpy as np
 import pytest
 
 from poir_mjx.core.agent import POIR, top_k_mean
-from poir_mjx.core.config import MLPConfig, PlannerConfig, POIRConfig, TrainConfig
 from poir_mjx.core.rewards import l2_reward
-from tests.core.toy import expert_data
+from tests.helpers import SMALL, expert_data
 
-SMALL = POIRConfig(
-    ensemble_size=3,
-    bc=MLPConfig(layers=2, width=32),
-    world_model=MLPConfig(layers=2, width=32),
-    train=TrainConfig(epochs=60, batch_size=64, learning_rate=3e-3),
-    planner=PlannerConfig(num_trajectories=64, horizon=3, sigma=1.0, top_k=4, reward="l2"),
-    bc_space="normalized",  # the paper's prior; tests/core/test_prior.py covers the others
-)
 
 
 def test_top_k_mean_and_argmax():

@@ -11,7 +11,7 @@ import pytest
 from poir_mjx.core import checkpoint, rewards
 from poir_mjx.core.agent import POIR, top_k_mean
 from poir_mjx.core.config import MLPConfig, PlannerConfig, POIRConfig, TrainConfig
-from tests.core.toy import expert_data
+from tests.helpers import expert_data
 
 CFG = POIRConfig(
     ensemble_size=2,

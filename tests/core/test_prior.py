@@ -12,7 +12,7 @@ from poir_mjx.core import ensemble as ens
 from poir_mjx.core import rewards
 from poir_mjx.core.agent import POIR
 from poir_mjx.core.config import MLPConfig, NormalizerConfig, TrainConfig
-from tests.core.toy import expert_data, tiny_config
+from tests.helpers import expert_data, tiny_config
 
 CFG = tiny_config()
 OBS = jnp.array([0.3, 0.02], jnp.float32)

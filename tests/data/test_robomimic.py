@@ -6,19 +6,8 @@ import h5py
 import numpy as np
 import pytest
 
-from poir_mjx.data.robomimic import DatasetError, Demo, read_transitions, write_robomimic
-
-ENV_ARGS = {"env_name": "Lift", "type": 1, "env_kwargs": {"control_freq": 20}}
-SIZES = {"robot0_eef_pos": 3, "robot0_eef_quat": 4, "robot0_gripper_qpos": 2, "object": 10}
-
-
-def make_demo(t, seed):
-    rng = np.random.default_rng(seed)
-    obs = {k: rng.normal(size=(t, d)) for k, d in SIZES.items()}
-    nxt = {k: rng.normal(size=(t, d)) for k, d in SIZES.items()}
-    return Demo(obs=obs, next_obs=nxt, actions=rng.uniform(-1, 1, (t, 7)), rewards=np.zeros(t),
-                dones=np.r_[np.zeros(t - 1), 1], states=rng.normal(size=(t, 33)), model_file="<mujoco/>")
-
+from poir_mjx.data.robomimic import DatasetError, read_transitions, write_robomimic
+from tests.helpers import ENV_ARGS, make_demo
 
 @pytest.fixture
 def good(tmp_path):

@@ -13,9 +13,9 @@ from poir_mjx.envs.env import make_params
 from poir_mjx.rollout.sharding import run_sharded
 from poir_mjx.online.finetune import deployment_error
 from poir_mjx.online.loop import OnlineTrainer
-from tests.core.test_planner import SMALL
-from tests.core.toy import expert_data
-from tests.online.toy_env import PointMassEnv
+from tests.helpers import SMALL
+from tests.helpers import expert_data
+from tests.helpers import PointMassEnv
 
 CFG = dataclasses.replace(
     SMALL,  # the planner tests' toy agent (L2 reward)

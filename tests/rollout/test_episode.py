@@ -7,7 +7,7 @@ import numpy as np
 from poir_mjx.envs.env import make_params
 from poir_mjx.rollout.episode import Policy, batched_episodes, run_episode, stateless
 from poir_mjx.rollout.protocol import INFO_KEYS, Env
-from tests.online.toy_env import PointMassEnv
+from tests.helpers import PointMassEnv
 
 
 def test_toy_env_implements_the_protocol():

@@ -14,8 +14,8 @@ from poir_mjx.sweep.curves import write_baseline_curves
 from poir_mjx.rollout.evaluator import episode_keys
 from poir_mjx.sweep.plan import SweepPlan
 from poir_mjx.sweep.config import SweepConfig
-from tests.baselines.fake import StepLearner
-from tests.online.toy_env import PointMassEnv
+from tests.helpers import StepLearner
+from tests.helpers import PointMassEnv
 
 
 @dataclasses.dataclass(frozen=True)

@@ -14,7 +14,7 @@ from poir_mjx.data.robomimic import DatasetError, read_transitions, write_robomi
 from poir_mjx.sweep import run_folder
 from poir_mjx.sweep.artifacts import content_digest, read_cell
 from poir_mjx.sweep.config import load_sweep_config
-from tests.data.test_robomimic import ENV_ARGS, make_demo
+from tests.helpers import ENV_ARGS, make_demo
 
 BASE = {"name": "x", "tasks": ["lift"], "methods": ["EBC"]}
 

@@ -26,7 +26,7 @@ from poir_mjx.video.record import Recording
 from poir_mjx.video.render import Painter, renderer
 from poir_mjx.video.scene import arm_geoms, scene_model
 from poir_mjx.video.video import cell_episodes, frames
-from tests.data.test_robomimic import ENV_ARGS, make_demo
+from tests.helpers import ENV_ARGS, make_demo
 
 ROOT = Path(__file__).resolve().parents[2]
 W, H = 96, 72
