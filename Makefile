@@ -77,7 +77,7 @@ envs: $(STAMP)
 	$(PY) -m poir_mjx.cli envs --out envs
 
 demos: $(STAMP)
-	$(PY) -m poir_mjx.cli demos generate --num 200 --out data/demos --simulator $(DEMO_SIM)
+	$(PY) -m poir_mjx.cli demos generate --out data/demos --simulator $(DEMO_SIM)
 
 expert-success: $(STAMP)
 	$(PY) -m poir_mjx.cli demos success --simulator robosuite --episodes 100

@@ -13,7 +13,7 @@ import tyro
 
 from poir_mjx.flags import flags_type
 from poir_mjx.core.config import PRESETS, REWARDS, PlannerConfig, POIRConfig
-from poir_mjx.envs.tasks import TASKS
+from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS, TASKS
 
 Task = Literal[TASKS]  # type: ignore[valid-type]
 Preset = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
@@ -102,7 +102,7 @@ class DemosGenerate:
 
     tasks: tuple[Task, ...] = TASKS  # type: ignore[valid-type]
     """Tasks to record."""
-    num: int = 200
+    num: int = DEFAULT_NUM_DEMOS
     """Successful demonstrations per task."""
     seed: int = 0
     """Seed of the episodes."""
@@ -188,7 +188,7 @@ class BenchE2E:
     """Episodes per batch."""
     steps: int = 100
     """Control steps per episode."""
-    num_demos: int = 200
+    num_demos: int = DEFAULT_NUM_DEMOS
     """Scripted-expert demonstrations to train on."""
     demo_simulator: Literal["auto", "robosuite", "mjx"] = "auto"
     """Where the demos are recorded: "auto" (robosuite where installed, else MJX), "robosuite" or "mjx"."""

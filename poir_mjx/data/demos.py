@@ -23,7 +23,7 @@ from poir_mjx.data import expert as ex
 from poir_mjx.data import mjx_demos
 from poir_mjx.data.robomimic import ENV_NAMES, write_robomimic
 from poir_mjx.data.expert_episodes import robosuite_episode
-from poir_mjx.envs.tasks import make_robosuite, robosuite_kwargs
+from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS, make_robosuite, robosuite_kwargs
 from poir_mjx.optional import require_robosuite
 
 SIMULATORS = ("robosuite", "mjx")
@@ -46,10 +46,11 @@ def env_args(task: str, sigma_init: float) -> dict:
     return {"env_name": ENV_NAMES[task], "type": 1, "env_version": robosuite.__version__, "env_kwargs": kw}
 
 
-def demo_path(task: str, out: Path, simulator: str = "robosuite", num: int = 200) -> Path:
-    """data/demos/<task>[-<simulator>][-n<num>].hdf5: 200 robosuite demos keep the plain name, and a
+def demo_path(task: str, out: Path, simulator: str = "robosuite", num: int = DEFAULT_NUM_DEMOS) -> Path:
+    """data/demos/<task>[-<simulator>][-n<num>].hdf5: DEFAULT_NUM_DEMOS robosuite demos keep the plain name, and a
     different count or simulator never overwrites another's file."""
-    name = task + ("" if simulator == "robosuite" else f"-{simulator}") + ("" if num == 200 else f"-n{num}")
+    name = task + ("" if simulator == "robosuite" else f"-{simulator}")
+    name += "" if num == DEFAULT_NUM_DEMOS else f"-n{num}"
     return Path(out) / f"{name}.hdf5"
 
 

@@ -6,6 +6,9 @@ import dataclasses
 from pathlib import Path
 
 TASKS = ("lift", "pick_place_can", "nut_assembly_square")
+# Scripted-expert demonstrations per task unless a command or config says otherwise (robomimic's datasets hold 200
+# per task); here, the lowest layer that needs it, so that options.py (no jax, no data/) can name it.
+DEFAULT_NUM_DEMOS = 200
 
 # robosuite class name for each task.
 ROBOSUITE_ENV = {

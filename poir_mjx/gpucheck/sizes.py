@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import dataclasses
 
+from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS
+
 STAGES = ("env", "planner", "e2e", "sweep", "expert")
 
 
@@ -50,7 +52,7 @@ class Sizes:
 GPU = Sizes(
     env_batches=(1, 4096, 1024), env_steps=20,
     planner_preset="paper", planner_batches=(1, 64), planner_calls=5, expert_states=30_000,
-    e2e_preset="cpu-small", e2e_episodes=256, e2e_steps=400, epochs=0, num_demos=200, demo_batch=256,
+    e2e_preset="cpu-small", e2e_episodes=256, e2e_steps=400, epochs=0, num_demos=DEFAULT_NUM_DEMOS, demo_batch=256,
     sweep_sigma_init=(0.02, 0.1, 0.2, 0.4),
     expert_tasks=("pick_place_can", "nut_assembly_square"), expert_episodes=100, expert_steps=0,
     deadlines=(("env", 100), ("planner", 100), ("e2e", 170), ("sweep", 60), ("expert", 120)), budget_s=480,

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Literal
 
 from poir_mjx.core.config import PRESETS, ConfigError, POIRConfig, apply_overrides, preset, to_dict
-from poir_mjx.envs.tasks import TASKS
+from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS, TASKS
 from poir_mjx.eval.methods import METHODS, get_method
 from poir_mjx.sweep.run_folder import run_name_problem
 from poir_mjx.typed_config import check, check_keys
@@ -44,7 +44,7 @@ class SweepConfig:
     """Episodes per cell."""
     max_steps: int = 400
     """Control steps per episode (robosuite's horizon is 400)."""
-    num_demos: int = 200
+    num_demos: int = DEFAULT_NUM_DEMOS
     """Scripted-expert demonstrations per task (ignored for tasks given in demo_files)."""
     demo_simulator: DemoSimulator = "robosuite"
     """Where the scripted expert records its demos: "robosuite" (MuJoCo C, needs robosuite) or "mjx"
