@@ -40,11 +40,11 @@ def default_demo_batch() -> int:
 
 
 def bench(preset: str, method_name: str, episodes: int, steps: int, num_demos: int, *, demo_simulator: str = "auto",
-          demo_batch: int = 0, epochs: int = 0, data_dir: Path = Path("data/demos"),
+          demo_batch: int = 0, overrides: dict | None = None, data_dir: Path = Path("data/demos"),
           ckpt_dir: Path = Path("checkpoints")) -> dict:  # fmt: skip
     cfg = SweepConfig(name="bench", preset=preset, methods=(method_name,), episodes=episodes, max_steps=steps,
                       num_demos=num_demos, demo_simulator=default_demo_simulator() if demo_simulator == "auto" else demo_simulator,
-                      demo_batch=demo_batch or default_demo_batch(), epochs=epochs)  # fmt: skip
+                      demo_batch=demo_batch or default_demo_batch(), overrides=dict(overrides or {}))  # fmt: skip
     method = get_method(method_name)
     t0 = time.perf_counter()
     tr, prov = demos_for(cfg, "lift", Path(data_dir))

@@ -30,7 +30,7 @@ class Sizes:
     e2e_steps: int
     """Control steps per episode."""
     epochs: int
-    """Training epochs (0: the preset's)."""
+    """Training epochs (0: the preset's), given to the sweep and the e2e benchmark as the override train.epochs."""
     num_demos: int
     """Scripted-expert demos recorded in MJX for training."""
     demo_batch: int
@@ -68,6 +68,11 @@ DRY = Sizes(
     expert_tasks=("lift",), expert_episodes=2, expert_steps=0,
     deadlines=tuple((s, 1800) for s in STAGES), budget_s=3600,
 )  # fmt: skip
+
+
+def overrides(sizes: Sizes) -> dict:
+    """The POIR config fields the sizes replace (the sweep config's "overrides")."""
+    return {"train.epochs": sizes.epochs} if sizes.epochs else {}
 
 
 def deadline(sizes: Sizes, stage: str) -> int:

@@ -20,7 +20,7 @@ import jax
 import numpy as np
 
 from poir_mjx.gpucheck.record import Record
-from poir_mjx.gpucheck.sizes import Sizes
+from poir_mjx.gpucheck.sizes import Sizes, overrides
 
 # Dense float32 (no tensor cores), vendor datasheets: the ceiling of full-precision matmuls.
 PEAK_FP32 = {"H200": 67e12, "H100": 67e12, "A100": 19.5e12, "L40S": 91.6e12}
@@ -100,7 +100,7 @@ def e2e_stage(sizes: Sizes, rec: Record, scratch: Path) -> None:
 
     for method in ("EBC", "POIR-DRIL"):
         rec.add(bench(sizes.e2e_preset, method, sizes.e2e_episodes, sizes.e2e_steps, sizes.num_demos,
-                      demo_simulator="mjx", demo_batch=sizes.demo_batch, epochs=sizes.epochs,
+                      demo_simulator="mjx", demo_batch=sizes.demo_batch, overrides=overrides(sizes),
                       data_dir=scratch / "data", ckpt_dir=scratch / "checkpoints"))  # fmt: skip
 
 
@@ -110,7 +110,7 @@ def sweep_config(sizes: Sizes):
     return SweepConfig(name="gpu-check-lift", preset=sizes.e2e_preset, tasks=("lift",), methods=("EBC", "POIR-DRIL"),
                        sigma_init=sizes.sweep_sigma_init, episodes=sizes.e2e_episodes // len(sizes.sweep_sigma_init),
                        max_steps=sizes.e2e_steps, num_demos=sizes.num_demos, demo_simulator="mjx",
-                       demo_batch=sizes.demo_batch, simulator="mjx", epochs=sizes.epochs)  # fmt: skip
+                       demo_batch=sizes.demo_batch, simulator="mjx", overrides=overrides(sizes))  # fmt: skip
 
 
 def sweep_stage(sizes: Sizes, rec: Record, scratch: Path) -> None:

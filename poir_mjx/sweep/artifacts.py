@@ -155,7 +155,7 @@ def load_run_agent(run_dir: str | Path, task: str, method: str, seed: int = 0,
     src = Path(run_dir) / "config.json"
     if not src.is_file():
         raise ConfigError(f"{src}: no such file; expected a sweep run folder (results/<name>/)")
-    cfg = load_sweep_config(src)
+    cfg = load_sweep_config(src, recorded=True)
     for field, value, allowed in (("tasks", task, cfg.tasks), ("methods", method, cfg.methods),
                                   ("seeds", seed, cfg.seeds)):  # fmt: skip
         if value not in allowed:

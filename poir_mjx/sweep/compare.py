@@ -22,12 +22,13 @@ def _read_run(run: Path) -> tuple[dict, list[dict]]:
     not the one this config gives now (a stale cell, left by an earlier config or version) is left out."""
     from poir_mjx.sweep.artifacts import cell_hash, read_cell
     from poir_mjx.sweep.config import SweepConfig
+    from poir_mjx.sweep.run_folder import upgrade_recorded
 
     cfg_path = run / "config.json"
     if not cfg_path.is_file():
         raise ConfigError(f"{cfg_path}: no such file (not a sweep run folder, or made before run folders recorded their config)")
     try:
-        raw = json.loads(cfg_path.read_text())
+        raw = upgrade_recorded(json.loads(cfg_path.read_text()))
         cfg = SweepConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()})
     except (ValueError, TypeError) as e:
         raise ConfigError(f"{cfg_path}: not a sweep config of this version ({e})") from None

@@ -13,7 +13,7 @@ from typing import Literal
 from poir_mjx.core.config import PRESETS, ConfigError, POIRConfig, apply_overrides, preset, to_dict
 from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS, TASKS
 from poir_mjx.eval.methods import METHODS, get_method
-from poir_mjx.sweep.run_folder import run_name_problem
+from poir_mjx.sweep.run_folder import RETIRED, run_name_problem, upgrade_recorded
 from poir_mjx.typed_config import check, check_keys
 
 Preset = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
@@ -63,10 +63,9 @@ class SweepConfig:
     """"gpu" refuses to run unless jax sees a GPU (no silent CPU run), "cpu" forces the CPU, "any" takes jax's default."""
     demo_files: dict = dataclasses.field(default_factory=dict)
     """Optional {task: path} of robomimic HDF5 files to use instead of the scripted expert."""
-    epochs: int = 0
-    """If > 0, overrides the preset's training epochs."""
     overrides: dict = dataclasses.field(default_factory=dict)
-    """Dotted POIR config fields replacing the preset's values, e.g. {"online.total_env_steps": 20000}."""
+    """Dotted POIR config fields replacing the preset's values, e.g. {"train.epochs": 1} or
+    {"online.total_env_steps": 20000}."""
     baseline_overrides: dict = dataclasses.field(default_factory=dict)
     """Per baseline method, dotted fields of its config replacing the preset's, e.g.
     {"DAC": {"total_env_steps": 20000}} (poir_mjx/baselines: each algorithm's Config)."""
@@ -74,7 +73,7 @@ class SweepConfig:
     """MJX physics in float64 (float32 once launched Square's nut mid-grasp); networks and planner stay float32."""
 
 
-    ZERO_OK = ("seeds", "workers", "epochs")
+    ZERO_OK = ("seeds", "workers")
 
     def cross_check(self, prefix: str) -> None:
         if run_name_problem(self.name):
@@ -101,9 +100,12 @@ class SweepConfig:
                 raise ConfigError(f"demo_files.{task}: no such file {f}")
 
 
-def load_sweep_config(path: str | Path) -> SweepConfig:
+def load_sweep_config(path: str | Path, recorded: bool = False) -> SweepConfig:
     """Parse and validate a sweep config file (``poir_mjx.typed_config``: the field types, then the cross-field
-    rules above); errors name the file and the field: ``<file>: field '<dotted field>': <problem>``."""
+    rules above); errors name the file and the field: ``<file>: field '<dotted field>': <problem>``.
+
+    recorded: the file is a run folder's ``config.json``, written by the sweep, perhaps by an older version: its
+    retired fields are migrated (``run_folder.upgrade_recorded``) rather than refused."""
     path = Path(path)
 
     def no_duplicates(pairs):
@@ -123,6 +125,11 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
         raise ConfigError(f"{path}: not valid JSON ({e})") from None
     if not isinstance(raw, dict):
         raise ConfigError(f"{path}: expected a JSON object")
+    if recorded:
+        raw = upgrade_recorded(raw)
+    for field, instead in RETIRED.items():
+        if field in raw:
+            raise ConfigError(f"{path}: field '{field}' is no longer a sweep field; use {instead}")
     check_keys(raw, SweepConfig, str(path))
     if "name" not in raw:
         raise ConfigError(f"{path}: field 'name' is required")
@@ -137,8 +144,6 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
 
 def base_config(cfg: SweepConfig) -> POIRConfig:
     base = preset(cfg.preset)
-    if cfg.epochs:
-        base = dataclasses.replace(base, train=dataclasses.replace(base.train, epochs=cfg.epochs))
     return apply_overrides(base, cfg.overrides) if cfg.overrides else base
 
 

@@ -17,6 +17,23 @@ from poir_mjx.atomic import atomic_write_text
 from poir_mjx.core.config import ConfigError
 
 NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
+# Sweep config fields that are gone, and what a config file says instead (a recorded config is migrated).
+RETIRED = {"epochs": '"overrides": {"train.epochs": N}'}
+
+
+def upgrade_recorded(config: dict) -> dict:
+    """A run folder's recorded sweep config in today's fields: ``epochs`` (gone) becomes the override
+    ``train.epochs`` (0, the preset's, is dropped; an override already there wins). The POIR config, and so every
+    cell's config hash, is the same either way; a folder made before the change is not "a different config"."""
+    if "epochs" not in config:
+        return config
+    config = dict(config)
+    epochs = config.pop("epochs")
+    if epochs and isinstance(config.get("overrides", {}), dict):
+        config["overrides"] = {"train.epochs": epochs, **config.get("overrides", {})}
+    elif epochs:
+        config["epochs"] = epochs  # malformed overrides: left for the config check to name
+    return config
 
 
 def run_name_problem(name) -> str | None:
@@ -68,7 +85,8 @@ def prepare(out: Path, config: dict, replace_config: bool = False, defaults: dic
             raise ConfigError(f"{recorded}: not a sweep config (expected a JSON object, got {type(old).__name__})")
         if old == new:
             return
-        if isinstance(old, dict) and defaults is not None:
+        old = upgrade_recorded(old)
+        if defaults is not None:
             old = {**json.loads(json.dumps(defaults)), **old}
         if not replace_config and old != new:
             diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))

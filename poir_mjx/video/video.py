@@ -110,7 +110,7 @@ def render_video(cfg: VideoConfig, progress: bool = True) -> Path:
     src = Path(cfg.run) / "config.json"
     if not src.is_file():
         raise ConfigError(f"{src}: no such file; field 'run' must be a sweep run folder (results/<name>/)")
-    run_cfg = load_sweep_config(src)
+    run_cfg = load_sweep_config(src, recorded=True)
     keys, env_params = cell_episodes(run_cfg, src, cfg)
     steps = cfg.steps or run_cfg.max_steps
     recs = record(cfg, run_cfg, keys, env_params, steps, progress)

@@ -70,7 +70,7 @@ def test_an_unwritable_results_folder_is_refused_before_any_work(tmp_path, capsy
 @pytest.mark.parametrize(
     "fields, match",
     [
-        ({"epochs": -1}, "field 'epochs': must be >= 0, got -1"),
+        ({"epochs": 3}, r"c.json: field 'epochs' is no longer a sweep field; use \"overrides\": \{\"train.epochs\": N\}"),
         ({"demo_files": {"pick_place_can": "c.json"}}, "field 'demo_files': task 'pick_place_can' is not in field 'tasks'"),
         ({"demo_files": {"lift": "."}}, r"field 'demo_files.lift': \. is a directory"),
         ({"demo_files": {"lift": 5}}, r"field 'demo_files.lift': must be a file path \(a string\), got 5"),
@@ -213,3 +213,31 @@ def test_a_field_given_twice_is_refused(tmp_path):
     f.write_text('{"name": "x", "episodes": 5, "tasks": ["lift"], "episodes": 50}')
     with pytest.raises(ConfigError, match="field 'episodes' is given more than once"):
         load_sweep_config(f)
+
+
+def test_a_run_folder_recorded_with_epochs_is_migrated_and_accepted(tmp_path):
+    """Run folders made while the sweep config had `epochs`: 0 is dropped, N becomes the override train.epochs;
+    the folder is not "a different config", and the POIR config (so every cell's hash) is what `epochs` gave."""
+    import dataclasses
+
+    from poir_mjx.core.config import preset
+    from poir_mjx.sweep.config import SweepConfig, base_config
+
+    for epochs, overrides in ((0, {}), (3, {"train.epochs": 3})):
+        cfg = SweepConfig(name=f"old{epochs}", overrides=overrides)
+        out = tmp_path / cfg.name
+        (out / "cells").mkdir(parents=True)
+        (out / "cells" / "c.json").write_text("{}")
+        old = {**json.loads(json.dumps(dataclasses.asdict(cfg))), "epochs": epochs, "overrides": {}}
+        (out / "config.json").write_text(json.dumps(old))
+        run_folder.prepare(out, dataclasses.asdict(cfg), defaults=dataclasses.asdict(SweepConfig(name=cfg.name)))
+        assert "epochs" not in json.loads((out / "config.json").read_text())
+        (out / "config.json").write_text(json.dumps(old))
+        loaded = load_sweep_config(out / "config.json", recorded=True)
+        assert loaded == cfg
+        before = preset("cpu-small")  # what `epochs` did: the preset's train.epochs replaced when > 0
+        if epochs:
+            before = dataclasses.replace(before, train=dataclasses.replace(before.train, epochs=epochs))
+        assert base_config(loaded) == before
+    assert run_folder.upgrade_recorded({"epochs": 5, "overrides": {"train.epochs": 7}}) == {"overrides": {"train.epochs": 7}}
+

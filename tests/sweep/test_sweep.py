@@ -24,7 +24,7 @@ CFG = {
     "episodes": 2,
     "max_steps": 4,
     "num_demos": 6,
-    "epochs": 1,
+    "overrides": {"train.epochs": 1},
     "demo_simulator": DEMO_SIM,
     "demo_batch": 2,
 }
@@ -126,7 +126,7 @@ def test_bad_input_exits_nonzero_and_touches_nothing(tmp_path, capsys):
 
 
 ONLINE = {**CFG, "name": "tiny-online", "methods": ["POIR-DRIL online"], "sigma_init": [0.3], "seeds": [0],
-          "overrides": {"online.total_env_steps": 16, "online.num_envs": 2, "online.eval_every": 8,
+          "overrides": {**CFG["overrides"], "online.total_env_steps": 16, "online.num_envs": 2, "online.eval_every": 8,
                         "online.buffer_capacity": 64}}  # fmt: skip
 
 

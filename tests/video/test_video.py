@@ -120,8 +120,9 @@ def tiny_run(tmp_path_factory):
     """A sweep run folder (no cell evaluated yet) whose EBC agent trains in seconds on 3 random demos."""
     root = tmp_path_factory.mktemp("run")
     demos = write_robomimic(root / "lift.hdf5", [make_demo(8, s) for s in range(3)], ENV_ARGS)
-    cfg = SweepConfig(name="tiny", methods=("EBC",), sigma_init=(0.02, 0.3), episodes=2, max_steps=3, epochs=1,
-                      demo_files={"lift": str(demos)}, overrides={"train.batch_size": 8, "ensemble_size": 2})  # fmt: skip
+    cfg = SweepConfig(name="tiny", methods=("EBC",), sigma_init=(0.02, 0.3), episodes=2, max_steps=3,
+                      demo_files={"lift": str(demos)},
+                      overrides={"train.epochs": 1, "train.batch_size": 8, "ensemble_size": 2})  # fmt: skip
     run_folder.prepare(root / "tiny", dataclasses.asdict(cfg))
     return root
 
