@@ -39,7 +39,7 @@ SWEEP_ARGS ?=
 # Where `make demos` records the scripted expert: robosuite (MuJoCo C) or mjx (vectorised, no robosuite).
 DEMO_SIM ?= robosuite
 
-.PHONY: help venv envs demos expert-success test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench-robosuite bench sweep sweep-online eval xsim video ablations prior-study wheels gpu-check gpu-carry clean
+.PHONY: help venv envs demos expert-success test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench-robosuite bench sweep sweep-online eval xsim video ablations prior-study report wheels gpu-check gpu-carry clean
 
 help:
 	@echo "make test       - both dependency sets: the full suite on the CPU set, the current-stack suite (CI runs this)"
@@ -62,6 +62,7 @@ help:
 	@echo "make xsim CKPT=... - the same checkpoint in MJX and in robosuite side by side, Fisher exact test per cell"
 	@echo "make video      - a sweep cell's episodes re-run in MJX, drawn offscreen -> results/videos/*.mp4 (VIDEO_ARGS='--run ... --method ...')"
 	@echo "make ablations  - POIR-DRIL planner/normaliser ablations on Lift in robosuite (experiments/ablations/) -> results/ablations.md"
+	@echo "make report     - results/README.md from each published run's own files (config, notes.md, tables, plots)"
 
 $(STAMP): pyproject.toml $(LOCKS)
 	@test -n "$(PYTHON)" || { echo "error: no Python interpreter for STACK=$(STACK) (cpu: 3.11; current/gpu: 3.12 or newer); set PYTHON=/path/to/python"; exit 2; }
@@ -156,6 +157,10 @@ prior-study: $(STAMP)
 	  experiments/prior/cpu-prior-excess-wide-demos.json experiments/prior/cpu-prior-excess.json; do \
 	  $(PY) -m poir_mjx.cli sweep --config $$f || exit $$?; done
 	$(PY) -m poir_mjx.cli compare $(patsubst experiments/prior/%.json,results/%,$(PRIOR_RUNS)) --out results/prior-choice.md
+
+# The index of the published runs, from their own files (commit it with the runs; a test checks it is current).
+report: $(STAMP)
+	$(PY) -m poir_mjx.cli report --results results
 
 xsim: $(STAMP)
 	@test -n "$(CKPT)" || { echo "usage: make xsim CKPT=checkpoints/<task>/<file>.ckpt [EVAL_ARGS='--sigma-init 0.02 0.2 --episodes 20']"; exit 2; }

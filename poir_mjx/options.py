@@ -85,6 +85,18 @@ class Compare:
 
 
 @dataclasses.dataclass(frozen=True)
+class Report:
+    """results/README.md from each published run's own files: setup, notes.md, tables, plots (make report)."""
+
+    results: Path = Path("results")
+    """Results folder: its run folders (config.json and summary.md), tables across runs, bench/ and expert/."""
+    out: Optional[Path] = None
+    """The page to write (default: <results>/README.md)."""
+    check: bool = False
+    """Write nothing; exit status 1 with one line if the page on disk differs from what would be generated."""
+
+
+@dataclasses.dataclass(frozen=True)
 class Envs:
     """Export the robosuite tasks to MJX-ready MJCF under envs/ (make envs; needs robosuite)."""
 

@@ -3,6 +3,7 @@
     sweep --config experiments/cpu-small.json [--planner.sigma 0.1 ...]   success rate versus noise (make sweep)
     eval --ckpt PATH [--sigma-init ...] [--simulator both]               evaluate one checkpoint (make eval, xsim)
     compare RUN... [--out F]                                             one table across runs (make ablations)
+    report [--results results] [--check]                                 results/README.md from the runs (make report)
     video --run RUN --method M [--versus M2] --sigma-init S              a cell's episodes as an MP4 (make video)
     envs / demos generate / demos success / bench env|planner|e2e|robosuite        the other make targets
 
@@ -26,6 +27,7 @@ COMMANDS: tuple[Command, ...] = (
     Command("sweep", o.Sweep, "poir_mjx.cli.run:sweep"),
     Command("eval", o.Eval, "poir_mjx.cli.evaluate:evaluate"),
     Command("compare", o.Compare, "poir_mjx.cli.run:compare"),
+    Command("report", o.Report, "poir_mjx.cli.run:report"),
     Command("envs", o.Envs, "poir_mjx.cli.run:envs"),
     Command("demos generate", o.DemosGenerate, "poir_mjx.cli.demos:run_generate"),
     Command("demos success", o.DemosSuccess, "poir_mjx.cli.demos:run_success"),
@@ -72,7 +74,7 @@ def main(argv=None) -> int:
     from poir_mjx.optional import MissingDependencyError
 
     try:
-        if command.name not in ("compare", "envs"):  # every command that computes: full float32 on a GPU
+        if command.name not in ("compare", "report", "envs"):  # every command that computes: full float32 on a GPU
             from poir_mjx.devices import pin_precision
 
             pin_precision()

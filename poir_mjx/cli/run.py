@@ -1,4 +1,4 @@
-"""The functions behind ``sweep``, ``compare`` and ``envs`` (``eval``: evaluate.py)."""
+"""The functions behind ``sweep``, ``compare``, ``report`` and ``envs`` (``eval``: evaluate.py)."""
 
 from __future__ import annotations
 
@@ -39,6 +39,12 @@ def compare(opts: options.Compare) -> int:
     from poir_mjx.sweep.compare import main as compare_main
 
     return compare_main(list(opts.runs), opts.out)
+
+
+def report(opts: options.Report) -> int:
+    from poir_mjx.sweep.index import report as write_report
+
+    return write_report(opts.results, opts.out, opts.check)
 
 
 def envs(opts: options.Envs) -> int:

@@ -1,0 +1,80 @@
+"""`report`: results/README.md generated from each published run's own files, and the committed one is current."""
+
+import json
+from pathlib import Path
+
+from poir_mjx import cli
+from poir_mjx.sweep.index import generate
+
+ROOT = Path(__file__).resolve().parents[2]
+TABLE = """## lift
+
+Success rate (Wilson 95% interval), 2 episodes x 1 seed(s) per cell. Expert data: scripted expert. Simulator: MJX.
+
+| method | σ_init 0.02 |
+|---|---|
+| EBC | 0.50 [0.09, 0.91] |
+"""
+
+
+def _results(tmp_path: Path) -> Path:
+    results = tmp_path / "results"
+    run = results / "tiny"
+    run.mkdir(parents=True)
+    cfg = {"name": "tiny", "tasks": ["lift"], "methods": ["EBC"], "episodes": 2, "max_steps": 4, "sigma_init": [0.02],
+           "overrides": {"train.epochs": 1}}  # fmt: skip
+    (run / "config.json").write_text(json.dumps(cfg))
+    (run / "summary.md").write_text("# Sweep tiny\n")
+    (run / "lift.md").write_text(TABLE)
+    (run / "lift.png").write_bytes(b"png")
+    (run / "notes.md").write_text("Made by a test on no machine at all.\n")
+    unfinished = results / "unfinished"  # a run still going: no summary.md yet
+    unfinished.mkdir()
+    (unfinished / "config.json").write_text(json.dumps({**cfg, "name": "unfinished"}))
+    (results / "bench").mkdir()
+    (results / "bench" / "e2e.md").write_text("# End-to-end throughput\n")
+    return results
+
+
+def test_the_page_holds_each_runs_setup_notes_tables_and_plots(tmp_path, capsys):
+    results = _results(tmp_path)
+    assert cli.main(["report", "--results", str(results)]) == 0
+    page = (results / "README.md").read_text()
+    assert "python -m poir_mjx.cli report" in page.splitlines()[2] and "do not edit by hand" in page
+    assert "## [tiny](tiny/)" in page and "unfinished" not in page
+    assert "Tasks: lift. Methods: EBC. 2 episodes x 1 seed(s) per cell, max_steps 4" in page
+    assert "overrides: train.epochs=1" in page and "Made by a test on no machine at all." in page
+    assert "### lift" in page and "| EBC | 0.50 [0.09, 0.91] |" in page and "[lift.png](tiny/lift.png)" in page
+    assert "- [bench/e2e.md](bench/e2e.md): End-to-end throughput" in page
+    assert page == generate(results)
+
+
+def test_check_fails_once_a_runs_table_changes(tmp_path, capsys):
+    results = _results(tmp_path)
+    assert cli.main(["report", "--results", str(results), "--check"]) == 1  # no page yet
+    assert cli.main(["report", "--results", str(results)]) == 0
+    assert cli.main(["report", "--results", str(results), "--check"]) == 0
+    capsys.readouterr()
+    (results / "tiny" / "lift.md").write_text(TABLE.replace("0.50", "1.00"))
+    before = (results / "README.md").read_text()
+    assert cli.main(["report", "--results", str(results), "--check"]) == 1
+    out = capsys.readouterr().out
+    assert out.count("\n") == 1 and "README.md: differs" in out
+    assert (results / "README.md").read_text() == before  # --check writes nothing
+    other = tmp_path / "index.md"
+    assert cli.main(["report", "--results", str(results), "--out", str(other)]) == 0 and "1.00" in other.read_text()
+
+
+def test_a_bad_run_config_is_one_line_naming_the_file_and_field(tmp_path, capsys):
+    results = _results(tmp_path)
+    (results / "tiny" / "config.json").write_text(json.dumps({"name": "tiny", "tasks": ["lift"]}))
+    assert cli.main(["report", "--results", str(results)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "tiny/config.json: field 'methods' is missing" in err
+    assert cli.main(["report", "--results", str(tmp_path / "none")]) == 2
+
+
+def test_the_committed_results_readme_is_current():
+    """Fails when a published run's files changed and `make report` was not run (or the page was edited)."""
+    assert (ROOT / "results" / "README.md").read_text() == generate(ROOT / "results"), (
+        "results/README.md is stale: run `python -m poir_mjx.cli report` (make report) and commit it")
