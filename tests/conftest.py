@@ -4,8 +4,10 @@ from pathlib import Path
 
 import pytest
 
-# JAX's persistent compilation cache in a local folder: MJX programs take minutes to compile on CPU.
-os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", str(Path(__file__).resolve().parents[1] / ".cache" / "jax"))
+# JAX's persistent compilation cache in the user's cache folder (the Makefile's, shared by every clone on the
+# machine): MJX programs take minutes to compile on CPU.
+_CACHE_HOME = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", str(_CACHE_HOME / "poir-mjx" / "jax-cpu"))
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "1")
 # Headless OpenGL for the video tests (tests/video): MuJoCo reads it when first imported.
 if sys.platform.startswith("linux"):
