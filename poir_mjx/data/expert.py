@@ -173,7 +173,7 @@ def act(task: ExpertTask, obs: dict, st: ExpertState) -> tuple[jax.Array, Expert
             ((dist_xy < 0.005) & (jnp.abs(err[2]) < 0.02) & (jnp.abs(yaw_grasp) < 0.06)) | (t > 80),
             ((dist_xy < 0.004) & (jnp.abs(err[2]) < 0.008)) | (t > 40),
             t >= st.close_steps,
-            (~is_lift) & ((jnp.abs(err[2]) < 0.02) | (t > 60)),
+            jnp.logical_not(is_lift) & ((jnp.abs(err[2]) < 0.02) | (t > 60)),
             (dist_xy < 0.003) & (jnp.abs(err[2]) < 0.03) & (jnp.abs(yaw_carry) < 0.05) | (t > 120),
             (jnp.abs(err[2]) < 0.01) | (t > 50),
             t >= 5,
