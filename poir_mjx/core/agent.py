@@ -72,13 +72,19 @@ class POIR:
         train_world_model: bool = True,
         epochs: int | None = None,
         callback: Callable[[str, int, np.ndarray], None] | None = None,
+        bc_params=None,
     ) -> tuple[POIRParams, dict]:
         """Train the BC (and world-model) ensembles on expert transitions. Returns params and loss history.
 
         obs_groups: each observation dimension's group ("position", "quaternion", "gripper"; see
         ``poir_mjx.envs.layout.obs_groups``), which sets its std floor; None: no observation floor.
+        bc_params: with bc_space "raw" only, the BC heads of the policy agent fitted with the same key, config and
+        data, used instead of training them again (training would give them bit for bit: the raw space is the
+        policy's own).
         """
         cfg = self.config
+        if bc_params is not None and cfg.bc_space != "raw":
+            raise ValueError(f"bc_params: only a raw-space prior can reuse the policy's heads, not {cfg.bc_space!r}")
         obs, act, next_obs = (jnp.asarray(a, jnp.float32) for a in (obs, act, next_obs))
         if obs.shape[-1] != self.obs_size or next_obs.shape != obs.shape:
             raise ValueError(f"obs: expected [n, {self.obs_size}] and next_obs of the same shape, got {obs.shape}, {next_obs.shape}")
@@ -104,7 +110,9 @@ class POIR:
                     callback(name, e, np.asarray(loss))
             return st.params
 
-        if cfg.bc_space == "raw":
+        if bc_params is not None:
+            bc = bc_params
+        elif cfg.bc_space == "raw":
             bc = run("bc", self.bc_module, k_bc, obs, act)
         else:
             weights = act_norm.std**2 if cfg.bc_space == "weighted" else None

@@ -74,7 +74,8 @@ def train_or_load(method: Method, cfg: SweepConfig, task: str, seed: int, tr: Tr
             raise DatasetError(f"{tr.path}: observations {list(LOW_DIM_KEYS)} are {tr.obs.shape[1]} wide, "
                                f"task {task} has {len(groups)}")  # fmt: skip
         agent = POIR(tcfg, tr.obs.shape[1], tr.actions.shape[1])
-        bar = tqdm(total=tcfg.train.epochs * (2 if method.agent_kind == "poir" else 1),
+        bc = _policy_heads(cfg, task, seed, provenance, ckpt_dir) if method.agent_kind == "poir" else None
+        bar = tqdm(total=tcfg.train.epochs * (2 if method.agent_kind == "poir" and bc is None else 1),
                    desc=f"train {task} {method.agent_kind} seed {seed}", unit="epoch", disable=not progress)  # fmt: skip
 
         def cb(name, epoch, loss):
@@ -82,10 +83,20 @@ def train_or_load(method: Method, cfg: SweepConfig, task: str, seed: int, tr: Tr
             bar.set_postfix({name: f"{float(np.mean(loss)):.4f}"})
 
         params, _ = agent.fit(jax.random.PRNGKey(seed), tr.obs, tr.actions, tr.next_obs, obs_groups=groups,
-                              train_world_model=method.agent_kind == "poir", callback=cb)  # fmt: skip
+                              train_world_model=method.agent_kind == "poir", callback=cb, bc_params=bc)  # fmt: skip
         bar.close()
         checkpoint.save(path, agent, params, layout)
     return POIR(method.agent_config(base_config(cfg)), agent.obs_size, agent.act_size), params, path
+
+
+def _policy_heads(cfg: SweepConfig, task: str, seed: int, provenance: dict, ckpt_dir: Path):
+    """A raw-space POIR prior's BC heads from the policy agent's checkpoint (EBC's, same config, seed and data), if
+    one is there: fitting them again would give them bit for bit (POIR.fit's bc_params); None otherwise."""
+    poir = get_method("POIR-DRIL").training_config(base_config(cfg))
+    if poir.bc_space != "raw":
+        return None
+    path, tcfg, layout = checkpoint_file(get_method("EBC"), cfg, task, seed, provenance, ckpt_dir)
+    return checkpoint.load(path, tcfg, layout)[1].bc if path.exists() else None
 
 
 def cell_path(out: Path, task: str, method: str, si: float, sa: float, seed: int) -> Path:

@@ -37,6 +37,12 @@ def test_raw_prior_is_ebcs_ensemble_bit_for_bit():
     np.testing.assert_array_equal(policy.bc_action(p_policy, OBS), poir.bc_action(p_poir, OBS))
     _, p_norm = _fit(dataclasses.replace(CFG, bc_space="normalized"))
     assert not np.allclose(jax.tree_util.tree_leaves(p_norm.bc)[0], jax.tree_util.tree_leaves(p_poir.bc)[0])
+    # So the policy's heads can stand in for training them again: every parameter comes out the same.
+    _, p_reused = _fit(dataclasses.replace(CFG, bc_space="raw"), bc_params=p_policy.bc)
+    for a, b in zip(jax.tree_util.tree_leaves(p_poir), jax.tree_util.tree_leaves(p_reused), strict=True):
+        np.testing.assert_array_equal(a, b)
+    with pytest.raises(ValueError, match="bc_params"):
+        _fit(dataclasses.replace(CFG, bc_space="normalized"), bc_params=p_policy.bc)
 
 
 @pytest.mark.parametrize("space", ["normalized", "weighted", "raw"])
