@@ -214,30 +214,27 @@ def from_dict(d: dict, cls=None, source: str = "config"):
     return typed_config.from_dict(d, POIRConfig if cls is None else cls, source)
 
 
+# Trains in under a minute and plans in milliseconds on 2 CPU cores. Fewer epochs than the paper's 500, so a 10x
+# larger learning rate: at 1e-4 x 30 epochs EBC lifted the cube in 0 of 10 episodes at sigma_init 0.02; at 1e-3 x
+# 100 epochs in 10 of 10 (robosuite, 200 demos).
+_CPU_SMALL = POIRConfig(
+    ensemble_size=5,
+    bc=MLPConfig(layers=3, width=64),
+    world_model=MLPConfig(layers=3, width=64),
+    train=TrainConfig(epochs=100, batch_size=256, learning_rate=1e-3),
+    planner=PlannerConfig(num_trajectories=256, horizon=5, sigma=0.2, top_k=5),
+    # Lift on 2 CPU cores steps about 20 episode-steps/s in MJX: 20k steps is ~20 minutes a cell.
+    online=OnlineConfig(total_env_steps=20_000, num_envs=16, eval_every=10_000, buffer_capacity=20_000),
+)
+
 PRESETS: dict[str, POIRConfig] = {
-    # Trains in under a minute and plans in milliseconds on 2 CPU cores. Fewer epochs than the
-    # paper's 500, so a 10x larger learning rate: at 1e-4 x 30 epochs EBC lifted the cube in 0 of
-    # 10 episodes at sigma_init 0.02; at 1e-3 x 100 epochs in 10 of 10 (robosuite, 200 demos).
-    "cpu-small": POIRConfig(
-        ensemble_size=5,
-        bc=MLPConfig(layers=3, width=64),
-        world_model=MLPConfig(layers=3, width=64),
-        train=TrainConfig(epochs=100, batch_size=256, learning_rate=1e-3),
-        planner=PlannerConfig(num_trajectories=256, horizon=5, sigma=0.2, top_k=5),
-        # Lift on 2 CPU cores steps about 20 episode-steps/s in MJX: 20k steps is ~20 minutes a cell.
-        online=OnlineConfig(total_env_steps=20_000, num_envs=16, eval_every=10_000, buffer_capacity=20_000),
-    ),
+    "cpu-small": _CPU_SMALL,
     # PickPlaceCan's smallest measured preset at which EBC reaches 0.8 at sigma_init 0.02 (robosuite, 200 scripted
     # demos, 30 episodes; experiments/presets/can-ebc-*.json): 3x256 x 300 epochs 0.53, 4x256 0.23, the paper's
     # 5x300 x 500 epochs at 3e-4 0.80. The planner stays cpu-small's (N 256, K 5): POIR plans at CPU speed.
-    "cpu-can": POIRConfig(
-        ensemble_size=5,
-        bc=MLPConfig(layers=5, width=300),
-        world_model=MLPConfig(layers=5, width=300),
-        train=TrainConfig(epochs=500, batch_size=256, learning_rate=3e-4),
-        planner=PlannerConfig(num_trajectories=256, horizon=5, sigma=0.2, top_k=5),
-        online=OnlineConfig(total_env_steps=20_000, num_envs=16, eval_every=10_000, buffer_capacity=20_000),
-    ),
+    "cpu-can": dataclasses.replace(
+        _CPU_SMALL, bc=MLPConfig(layers=5, width=300), world_model=MLPConfig(layers=5, width=300),
+        train=TrainConfig(epochs=500, batch_size=256, learning_rate=3e-4)),
     # The paper's sizes (Appendix): K 27, 5x300 MLPs, N 4000, H 5, sigma 0.2, 500 epochs;
     # online: 500k steps, evaluation every 50k. Rewards apply 3 of the 27 heads at a time (memory).
     "paper": POIRConfig(planner=PlannerConfig(head_chunk=3)),
