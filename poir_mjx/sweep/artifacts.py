@@ -74,7 +74,8 @@ def train_or_load(method: Method, cfg: SweepConfig, task: str, seed: int, tr: Tr
             raise DatasetError(f"{tr.path}: observations {list(LOW_DIM_KEYS)} are {tr.obs.shape[1]} wide, "
                                f"task {task} has {len(groups)}")  # fmt: skip
         agent = POIR(tcfg, tr.obs.shape[1], tr.actions.shape[1])
-        bc = _policy_heads(cfg, task, seed, provenance, ckpt_dir) if method.agent_kind == "poir" else None
+        raw_prior = method.agent_kind == "poir" and tcfg.bc_space == "raw"
+        bc = _policy_heads(cfg, task, seed, provenance, ckpt_dir) if raw_prior else None
         bar = tqdm(total=tcfg.train.epochs * (2 if method.agent_kind == "poir" and bc is None else 1),
                    desc=f"train {task} {method.agent_kind} seed {seed}", unit="epoch", disable=not progress)  # fmt: skip
 
@@ -92,9 +93,6 @@ def train_or_load(method: Method, cfg: SweepConfig, task: str, seed: int, tr: Tr
 def _policy_heads(cfg: SweepConfig, task: str, seed: int, provenance: dict, ckpt_dir: Path):
     """A raw-space POIR prior's BC heads from the policy agent's checkpoint (EBC's, same config, seed and data), if
     one is there: fitting them again would give them bit for bit (POIR.fit's bc_params); None otherwise."""
-    poir = get_method("POIR-DRIL").training_config(base_config(cfg))
-    if poir.bc_space != "raw":
-        return None
     path, tcfg, layout = checkpoint_file(get_method("EBC"), cfg, task, seed, provenance, ckpt_dir)
     return checkpoint.load(path, tcfg, layout)[1].bc if path.exists() else None
 
