@@ -102,12 +102,22 @@ def test_eval_cli_on_the_sweeps_checkpoint(dirs, capsys):
 
 @pytest.mark.slow
 @pytest.mark.needs_robosuite
-def test_the_same_sweep_evaluated_in_robosuite(dirs):
-    """simulator: robosuite reuses the demos and checkpoints; its cells and tables name the simulator."""
+def test_the_same_sweep_evaluated_in_robosuite(dirs, monkeypatch):
+    """simulator: robosuite reuses the demos and checkpoints, writes each cell as it ends; cells and tables name the
+    simulator."""
     root, _ = dirs
     cfg_path = root / "tiny-rs.json"
     cfg_path.write_text(json.dumps({**CFG, "name": "tiny-rs", "seeds": [0], "simulator": "robosuite"}))
-    out = run(root, cfg_path)
+    real = cells.run_episodes  # robosuite evaluates cell by cell: a run stopped in its second cell keeps the first
+    monkeypatch.setattr(cells, "run_episodes", dies_on_call(real, 2))
+    with pytest.raises(KeyboardInterrupt):
+        run(root, cfg_path)
+    first = root / "results/tiny-rs/cells/lift/EBC/si=0.02_sa=0_seed=0.json"
+    assert first.exists() and not first.with_name("si=0.3_sa=0_seed=0.json").exists()
+    done = first.stat().st_mtime_ns
+    monkeypatch.setattr(cells, "run_episodes", real)
+    out = run(root, cfg_path)  # the same command again: only the missing cell runs
+    assert first.stat().st_mtime_ns == done
     rec = json.loads((out / "cells/lift/EBC/si=0.3_sa=0_seed=0.json").read_text())
     assert rec["simulator"].startswith("robosuite 1.5") and rec["episodes"] == 2
     assert "Simulator: robosuite 1.5" in (out / "lift.md").read_text()
