@@ -81,6 +81,7 @@ def test_interrupted_sweep_resumes_to_the_same_tables(dirs, monkeypatch):
     assert (out / "cells/lift/EBC/si=0.02_sa=0_seed=0.json").exists()
     assert not (out / "cells/lift/EBC/si=0.02_sa=0_seed=1.json").exists()
     assert not list(out.rglob("*.tmp"))
+    assert "| EBC | 0.00 [" in (out / "lift.md").read_text()  # the tables of the cells finished before the kill
     done = (out / "cells/lift/EBC/si=0.02_sa=0_seed=0.json").stat().st_mtime_ns
 
     monkeypatch.setattr(cells, "run_episodes", real)
