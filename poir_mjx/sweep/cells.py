@@ -66,13 +66,16 @@ class CellBatch:
         atomic_write_text(self.paths[j], json.dumps(rec, indent=2) + "\n")
 
 
-def run_offline_cells(b: CellBatch, method, agent: POIR, params, progress: bool) -> int:
+def run_offline_cells(b: CellBatch, method, agent: POIR, params, progress: bool,
+                      on_cells: Callable[[int], None]) -> None:  # fmt: skip
     """The batch's noise cells that have no record yet. MJX: all of them in one evaluation call (one compiled
     batch). robosuite: one call per cell, each cell's record written as soon as its episodes end, so a stopped run
-    keeps every finished cell (a PickPlaceCan cell of POIR-DRIL takes about 10 minutes on the 2-core CPU)."""
+    keeps every finished cell (a PickPlaceCan cell of POIR-DRIL takes about 7 minutes on the 2-core CPU, of POIR-L2
+    about 45). on_cells(episodes) after each call's records are written."""
     todo = [j for j in range(len(b.grid)) if not read_cell(b.paths[j], b.chash)]
-    groups = [todo] if b.cfg.simulator == "mjx" else [[j] for j in todo]
-    return sum(_evaluate_cells(b, method, agent, params, js, progress) for js in groups if js)
+    for js in [todo] if b.cfg.simulator == "mjx" else [[j] for j in todo]:
+        if js:
+            on_cells(_evaluate_cells(b, method, agent, params, js, progress))
 
 
 def _evaluate_cells(b: CellBatch, method, agent: POIR, params, js: list[int], progress: bool) -> int:

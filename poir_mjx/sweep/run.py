@@ -16,7 +16,8 @@ environment (poir_mjx/baselines), checkpointing under checkpoints/<task>/baselin
 the trained policy's success (in the sweep's simulator) and its learning curve (in MJX).
 A cell whose record exists with the same config hash is never recomputed, so a sweep killed at
 any moment and started again with the same command finishes with the same tables. The tables are
-rewritten after every (task, method, seed) from the cells finished so far ("-" for the others).
+rewritten from the cells finished so far ("-" for the others) after every (task, method, seed) and
+every robosuite cell.
 
 This module walks the plan (``plan.py``: the grid, config hashes, cell paths, the reader of cell records); the
 cell runners are ``cells.py``, the config ``config.py``, the data, checkpoints and cell records ``artifacts.py``,
@@ -66,6 +67,14 @@ def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: 
     bar = tqdm(total=len(plan.runs()) * len(grid) * cfg.episodes, desc=f"sweep {cfg.name}", unit="ep",
                disable=not progress)  # fmt: skip
     t_start, done_now = time.perf_counter(), 0
+
+    def evaluated(n: int) -> None:  # after each offline evaluation call (a robosuite cell, or MJX's batch)
+        nonlocal done_now
+        done_now += n
+        bar.update(n)
+        bar.set_postfix(eps_per_s=f"{done_now / (time.perf_counter() - t_start):.2f}")
+        write_tables(plan)
+
     for task, mname, seed in plan.runs():
         method = get_method(mname)
         cells = plan.cells(task, mname, seed)
@@ -82,18 +91,15 @@ def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: 
                           common)  # fmt: skip
         if method.is_baseline:
             run_baseline_cells(batch, tr, ckpt_dir, progress, bar.update)
-        else:
-            agent, params, ckpt = train_or_load(method, cfg, task, seed, tr, prov, ckpt_dir, progress)
-            batch = dataclasses.replace(batch, common={**common, "checkpoint": str(ckpt)})
-            if method.online:
-                run_online_cells(batch, agent, params, (tr.obs, tr.actions, tr.next_obs), ckpt_dir, progress,
-                                 bar.update)  # fmt: skip
-            else:
-                n = run_offline_cells(batch, method, agent, params, progress)
-                done_now += n
-                bar.update(n)
-                bar.set_postfix(eps_per_s=f"{done_now / (time.perf_counter() - t_start):.2f}")
-        write_tables(plan)  # after every (task, method, seed): a long sweep's finished cells are readable while it runs
+            write_tables(plan)  # the finished cells are readable while a long sweep runs
+            continue
+        agent, params, ckpt = train_or_load(method, cfg, task, seed, tr, prov, ckpt_dir, progress)
+        batch = dataclasses.replace(batch, common={**common, "checkpoint": str(ckpt)})
+        if method.online:
+            run_online_cells(batch, agent, params, (tr.obs, tr.actions, tr.next_obs), ckpt_dir, progress, bar.update)
+            write_tables(plan)
+            continue
+        run_offline_cells(batch, method, agent, params, progress, evaluated)
     bar.close()
     write_tables(plan)
     return out

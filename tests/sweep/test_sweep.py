@@ -115,6 +115,7 @@ def test_the_same_sweep_evaluated_in_robosuite(dirs, monkeypatch):
         run(root, cfg_path)
     first = root / "results/tiny-rs/cells/lift/EBC/si=0.02_sa=0_seed=0.json"
     assert first.exists() and not first.with_name("si=0.3_sa=0_seed=0.json").exists()
+    assert "| EBC | 0.00 [0.00, 0.66] | - |" in (root / "results/tiny-rs/lift.md").read_text()  # its table too
     done = first.stat().st_mtime_ns
     monkeypatch.setattr(cells, "run_episodes", real)
     out = run(root, cfg_path)  # the same command again: only the missing cell runs
