@@ -28,7 +28,8 @@ class SweepConfig:
     name: str
     """Run name: results go to results/<name>/."""
     preset: Preset = "cpu-small"
-    """POIR config preset (cpu-small, paper)."""
+    """POIR config preset (cpu-small; cpu-can and cpu-square: the same 5x300 networks for the contact-rich tasks;
+    paper)."""
     tasks: tuple[Task, ...] = ("lift",)
     """Tasks to evaluate."""
     methods: tuple[str, ...] = ("EBC", "POIR-DRIL")
