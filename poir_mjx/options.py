@@ -94,6 +94,9 @@ class Report:
     """The page to write (default: <results>/README.md)."""
     check: bool = False
     """Write nothing; exit status 1 with one line if the page on disk differs from what would be generated."""
+    tables: bool = False
+    """First rewrite each published run's tables and plots from its cell records with this version's report code
+    (nothing is simulated; a run published without its cells is left as it is)."""
 
 
 @dataclasses.dataclass(frozen=True)

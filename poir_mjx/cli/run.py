@@ -44,7 +44,7 @@ def compare(opts: options.Compare) -> int:
 def report(opts: options.Report) -> int:
     from poir_mjx.sweep.index import report as write_report
 
-    return write_report(opts.results, opts.out, opts.check)
+    return write_report(opts.results, opts.out, opts.check, opts.tables)
 
 
 def envs(opts: options.Envs) -> int:

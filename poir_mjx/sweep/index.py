@@ -96,18 +96,25 @@ def _page_links(results: Path, pattern: str, title: str) -> list[str]:
     return lines + [""]
 
 
-def generate(results: Path) -> str:
-    """The text of results/README.md for the results folder `results`."""
+def published_runs(results: Path) -> list[Path]:
+    """The run folders under `results` with a config.json and a summary.md that git does not ignore."""
     results = Path(results)
     if not results.is_dir():
         raise ConfigError(f"{results}: no such results folder")
-    runs = sorted(p for p in results.iterdir() if (p / "config.json").is_file() and (p / "summary.md").is_file())
+    return _not_ignored(sorted(p for p in results.iterdir()
+                               if (p / "config.json").is_file() and (p / "summary.md").is_file()))  # fmt: skip
+
+
+def generate(results: Path) -> str:
+    """The text of results/README.md for the results folder `results`."""
+    results = Path(results)
+    runs = published_runs(results)
     lines = ["# Results", "", HEADER, "",
              "One section per published run (its folder holds `config.json`, every table, the plots and, for the "
              "prior study, the cell records), then the tables across runs, the benchmarks and the expert's success "
              "rate. The reading of these runs: [docs/results.md](../docs/results.md), "
              "[docs/results-prior.md](../docs/results-prior.md).", ""]  # fmt: skip
-    for run in _not_ignored(runs):
+    for run in runs:
         lines += _run_section(run)
     lines += _page_links(results, "*.md", "Tables across runs")
     lines += _page_links(results, "bench/*.md", "Benchmarks")
@@ -115,9 +122,15 @@ def generate(results: Path) -> str:
     return "\n".join(lines).rstrip("\n") + "\n"
 
 
-def report(results: Path, out: Path | None = None, check: bool = False) -> int:
-    """Write <results>/README.md (or `out`); with `check`, write nothing and return 1 if the file differs."""
+def report(results: Path, out: Path | None = None, check: bool = False, tables: bool = False) -> int:
+    """Write <results>/README.md (or `out`); with `check`, write nothing and return 1 if the file differs; with
+    `tables`, first rewrite each published run's tables from its cell records (``report.rewrite_tables``)."""
     out = Path(out) if out is not None else Path(results) / "README.md"
+    if tables and not check:
+        from poir_mjx.sweep.report import rewrite_tables
+
+        for run in published_runs(results):
+            print(f"{run}: tables rewritten" if rewrite_tables(run) else f"{run}: no cell records; tables left as they are")
     text = generate(Path(results))
     if check:
         if not out.is_file() or out.read_text() != text:

@@ -46,6 +46,25 @@ def write_tables(plan: SweepPlan) -> str:
     return summary
 
 
+def rewrite_tables(run: Path) -> bool:
+    """Rewrite run folder `run`'s tables and plots from its cell records with this version's report code (nothing is
+    simulated); False, writing nothing, when a task of the run has no current cell record (tables published without
+    their cells stay as they are). The expert data's digest of each task is the one its cells record."""
+    from poir_mjx.sweep.artifacts import recorded_provenance
+    from poir_mjx.sweep.config import load_sweep_config
+
+    cfg = load_sweep_config(Path(run) / "config.json", recorded=True)
+    digests = {}
+    for task in cfg.tasks:
+        prov = next((p for m in cfg.methods for s in cfg.seeds if (p := recorded_provenance(Path(run), cfg, task, m, s))),
+                    None)  # fmt: skip
+        if prov is None:
+            return False
+        digests[task] = prov["sha256"]
+    write_tables(SweepPlan.build(cfg, Path(run), digests))
+    return True
+
+
 def _write_task(plan: SweepPlan, task: str, table: dict) -> str:
     """<task>.md, .csv and .png (and the learning curves); returns the task's section of summary.md."""
     cfg, out = plan.cfg, plan.out
@@ -114,19 +133,27 @@ def _versus_table(cfg: SweepConfig, table: dict, cols: list, reference: str = "E
     if reference not in cfg.methods or not others:
         return ""
     from poir_mjx.eval.episodes import agreement_p_value
+    from poir_mjx.eval.stats import pooled_p_value
 
     what = {"POIR-random": " (the reward's ranking against random selection of the same planner's trajectories)"}
+    pool = len(cols) > 1
     md = ["", f"Versus {reference} on the same episodes{what.get(reference, '')}: difference in successes "
-          "(two-sided Fisher exact p).", "",
-          "| method | " + " | ".join(noise_label(si, sa, cfg) for si, sa in cols) + " |", "|---|" + "---|" * len(cols)]
+          "(two-sided Fisher exact p" + ("; all cells: the total difference and the Cochran-Mantel-Haenszel p over "
+          "the cells both have" if pool else "") + ").", "",
+          "| method | " + " | ".join(noise_label(si, sa, cfg) for si, sa in cols) + (" | all cells" if pool else "")
+          + " |", "|---|" + "---|" * (len(cols) + pool)]  # fmt: skip
     for m in others:
-        cells = []
+        cells, both = [], []
         for si, sa in cols:
             c, r = table.get((m, si, sa)), table.get((reference, si, sa))
             if c is None or r is None:
                 cells.append("-")
             else:
                 cells.append(f"{c['k'] - r['k']:+d} (p {agreement_p_value(c['k'], c['n'], r['k'], r['n']):.2g})")
+                both.append((c["k"], c["n"], r["k"], r["n"]))
+        if pool:
+            total = sum(k1 - k2 for k1, _, k2, _ in both)
+            cells.append(f"{total:+d} (p {pooled_p_value(both):.2g})" if len(both) > 1 else "-")
         md.append(f"| {m} | " + " | ".join(cells) + " |")
     return "\n".join(md) + "\n"
 

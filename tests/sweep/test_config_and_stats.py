@@ -4,7 +4,7 @@ import json
 import pytest
 
 from poir_mjx.core.config import ConfigError
-from poir_mjx.eval.stats import wilson_interval
+from poir_mjx.eval.stats import pooled_p_value, wilson_interval
 from poir_mjx.sweep.artifacts import cell_hash
 from poir_mjx.sweep.config import base_config, load_sweep_config
 
@@ -25,6 +25,22 @@ def test_wilson_interval_known_values():
         wilson_interval(11, 10)
     with pytest.raises(ValueError, match="n:"):
         wilson_interval(0, 0)
+
+
+def test_pooled_p_value_known_values():
+    # R's mantelhaen.test example (penicillin and rabbits, 5 strata): Mantel-Haenszel X-squared 3.9286, p 0.04747.
+    rabbits = [(0, 6, 0, 5), (3, 6, 0, 6), (6, 6, 2, 6), (5, 6, 6, 6), (2, 2, 5, 5)]
+    assert pooled_p_value(rabbits) == pytest.approx(0.04747, abs=1e-5)
+    # One stratum: the continuity-corrected statistic is Yates' chi-square times (N - 1) / N.
+    from scipy.stats import chi2, chi2_contingency
+
+    yates = chi2_contingency([[20, 10], [12, 18]], correction=True).statistic
+    assert pooled_p_value([(20, 30, 12, 30)]) == pytest.approx(chi2.sf(yates * 59 / 60, 1))
+    assert pooled_p_value([(5, 30, 5, 30), (9, 30, 9, 30)]) == 1.0  # the same counts: no difference
+    assert pooled_p_value([(30, 30, 30, 30), (0, 30, 0, 30)]) == 1.0  # no variance in any stratum
+    # Consistent small leads add up: each cell alone is far from significant, together they are.
+    lead = [(18, 30, 12, 30)] * 6
+    assert pooled_p_value(lead) < 0.01 < pooled_p_value(lead[:1])
 
 
 def test_shipped_sweep_configs():

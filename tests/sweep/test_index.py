@@ -78,3 +78,36 @@ def test_the_committed_results_readme_is_current():
     """Fails when a published run's files changed and `make report` was not run (or the page was edited)."""
     assert (ROOT / "results" / "README.md").read_text() == generate(ROOT / "results"), (
         "results/README.md is stale: run `python -m poir_mjx.cli report` (make report) and commit it")
+
+
+def test_tables_are_rewritten_from_the_cell_records(tmp_path, capsys):
+    """`report --tables`: a run's tables come back from its cell records in today's format; a run published
+    without its cells keeps its tables."""
+    from poir_mjx.sweep.artifacts import cell_hash, cell_path
+    from poir_mjx.sweep.config import load_sweep_config
+
+    results = _results(tmp_path)
+    run = results / "grid"
+    run.mkdir()
+    raw = {"name": "grid", "tasks": ["lift"], "methods": ["EBC", "POIR-DRIL"], "episodes": 30, "max_steps": 4,
+           "sigma_init": [0.02, 0.3]}  # fmt: skip
+    (run / "config.json").write_text(json.dumps(raw))
+    (run / "summary.md").write_text("# Sweep grid (an older version's tables)\n")
+    cfg = load_sweep_config(run / "config.json", recorded=True)
+    data = {"source": "scripted expert", "expert": "e", "simulator": "s", "num_demos": 1, "sha256": "d1g3st"}
+    for method, counts in (("EBC", (20, 5)), ("POIR-DRIL", (24, 9))):
+        for si, k in zip(cfg.sigma_init, counts):
+            path = cell_path(run, "lift", method, si, 0.0, 0)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(json.dumps({"task": "lift", "method": method, "seed": 0, "episodes": 30, "successes": k,
+                                        "diverged": 0, "config_hash": cell_hash(cfg, "lift", method, "d1g3st"),
+                                        "data": data, "simulator": "robosuite"}))  # fmt: skip
+    assert cli.main(["report", "--results", str(results), "--tables"]) == 0
+    out = capsys.readouterr().out
+    assert f"{run}: tables rewritten" in out and f"{results / 'tiny'}: no cell records" in out
+    table = (run / "lift.md").read_text()
+    assert "| POIR-DRIL | 0.80 [0.63, 0.90] | 0.30 [0.17, 0.48] |" in table and "| all cells |" in table
+    assert "| POIR-DRIL | +4 (p " in table and "| +8 (p 0.14) |" in table  # 33 against 25 of 60, pooled
+    assert (run / "lift.png").is_file() and "Sweep grid" in (run / "summary.md").read_text()
+    assert (results / "tiny" / "lift.md").read_text() == TABLE
+    assert "| POIR-DRIL | +4 (p " in (results / "README.md").read_text()

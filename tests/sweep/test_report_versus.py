@@ -2,6 +2,7 @@
 
 from scipy.stats import fisher_exact
 
+from poir_mjx.eval.stats import pooled_p_value
 from poir_mjx.sweep.report import _ranks, _versus_table
 from poir_mjx.sweep.config import SweepConfig
 
@@ -14,8 +15,11 @@ def test_versus_table_gives_differences_and_fisher_p():
              ("POIR-prior", 0.02, 0.0): {"k": 40, "n": 50}}  # fmt: skip
     md = _versus_table(cfg, table, cols)
     p = fisher_exact([[25, 25], [10, 40]]).pvalue
-    assert f"| POIR-DRIL | -10 (p {fisher_exact([[30, 20], [40, 10]]).pvalue:.2g}) | +15 (p {p:.2g}) |" in md
-    assert "| POIR-prior | +0 (p 1) | - |" in md
+    pooled = pooled_p_value([(30, 50, 40, 50), (25, 50, 10, 50)])
+    assert "| method | σ_init 0.02 | σ_init 0.3 | all cells |" in md
+    assert (f"| POIR-DRIL | -10 (p {fisher_exact([[30, 20], [40, 10]]).pvalue:.2g}) | +15 (p {p:.2g}) "
+            f"| +5 (p {pooled:.2g}) |") in md
+    assert "| POIR-prior | +0 (p 1) | - | - |" in md  # one cell: nothing to pool
     assert _versus_table(SweepConfig(name="t", methods=("POIR-DRIL", "BC")), table, cols) == ""
 
 
@@ -25,4 +29,4 @@ def test_versus_random_selection_compares_the_ranking_planners_only():
     table = {(m, 0.3, 0.0): {"k": k, "n": 50} for m, k in
              (("EBC", 20), ("POIR-random", 30), ("POIR-DRIL", 25), ("POIR-prior", 20), ("POIR-noprior", 0))}
     md = _versus_table(cfg, table, [(0.3, 0.0)], "POIR-random", _ranks)
-    assert "| POIR-DRIL | -5 (p" in md and "POIR-prior" not in md and "POIR-noprior" not in md and "| EBC |" not in md
+    assert "| POIR-DRIL | -5 (p" in md and "all cells" not in md and "POIR-prior" not in md and "POIR-noprior" not in md and "| EBC |" not in md
