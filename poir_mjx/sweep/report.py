@@ -117,6 +117,9 @@ def _task_table(cfg: SweepConfig, task: str, table: dict) -> tuple[str, str]:
         md.append(f"| {m} | " + " | ".join(cells) + " |")
         csv.append(m + "," + ",".join(row))
     versus = _versus_table(cfg, table, cols) + _versus_table(cfg, table, cols, "POIR-random", _ranks)
+    for m in cfg.methods:  # an online method against its own offline agent
+        if get_method(m).online and m.removesuffix(" online") in cfg.methods:
+            versus += _versus_table(cfg, table, cols, m.removesuffix(" online"), lambda x, m=m: x == m)
     return "\n".join(md) + "\n" + versus, "\n".join(csv) + "\n"
 
 
@@ -136,6 +139,8 @@ def _versus_table(cfg: SweepConfig, table: dict, cols: list, reference: str = "E
     from poir_mjx.eval.stats import pooled_p_value
 
     what = {"POIR-random": " (the reward's ranking against random selection of the same planner's trajectories)"}
+    if reference.startswith("POIR-") and reference + " online" in others:
+        what[reference] = " (after online fine-tuning against the offline agent it started from)"
     pool = len(cols) > 1
     md = ["", f"Versus {reference} on the same episodes{what.get(reference, '')}: difference in successes "
           "(two-sided Fisher exact p" + ("; all cells: the total difference and the Cochran-Mantel-Haenszel p over "

@@ -30,3 +30,21 @@ def test_versus_random_selection_compares_the_ranking_planners_only():
              (("EBC", 20), ("POIR-random", 30), ("POIR-DRIL", 25), ("POIR-prior", 20), ("POIR-noprior", 0))}
     md = _versus_table(cfg, table, [(0.3, 0.0)], "POIR-random", _ranks)
     assert "| POIR-DRIL | -5 (p" in md and "all cells" not in md and "POIR-prior" not in md and "POIR-noprior" not in md and "| EBC |" not in md
+
+
+def test_an_online_method_is_compared_with_its_offline_agent():
+    from poir_mjx.sweep.report import _task_table
+
+    cfg = SweepConfig(name="t", methods=("EBC", "POIR-DRIL", "POIR-DRIL online", "POIR-MOREL online"),
+                      sigma_init=(0.1, 0.4))  # fmt: skip
+    data = {"source": "scripted expert"}
+    table = {(m, si, 0.0): {"k": k, "n": 50, "ci": (0.0, 1.0), "diverged": 0, "data": data, "simulator": "robosuite"}
+             for m, ks in (("EBC", (30, 10)), ("POIR-DRIL", (29, 11)), ("POIR-DRIL online", (36, 20)),
+                           ("POIR-MOREL online", (33, 15)))
+             for si, k in zip((0.1, 0.4), ks)}  # fmt: skip
+    md, _ = _task_table(cfg, "lift", table)
+    part = md.split("Versus POIR-DRIL on the same episodes (after online fine-tuning")[1]
+    pooled = pooled_p_value([(36, 50, 29, 50), (20, 50, 11, 50)])
+    assert f"| POIR-DRIL online | +7 (p {fisher_exact([[36, 14], [29, 21]]).pvalue:.2g}) | +9 (p" in part
+    assert f"| +16 (p {pooled:.2g}) |" in part
+    assert "POIR-MOREL online" not in part  # its offline agent (POIR-MOREL) is not in the sweep
