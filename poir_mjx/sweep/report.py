@@ -117,9 +117,8 @@ def _task_table(cfg: SweepConfig, task: str, table: dict) -> tuple[str, str]:
         md.append(f"| {m} | " + " | ".join(cells) + " |")
         csv.append(m + "," + ",".join(row))
     versus = _versus_table(cfg, table, cols) + _versus_table(cfg, table, cols, "POIR-random", _ranks)
-    for m in cfg.methods:  # an online method against its own offline agent
-        if get_method(m).online and m.removesuffix(" online") in cfg.methods:
-            versus += _versus_table(cfg, table, cols, m.removesuffix(" online"), lambda x, m=m: x == m)
+    for m in (m for m in cfg.methods if get_method(m).online):  # an online method against its own offline agent
+        versus += _versus_table(cfg, table, cols, m.removesuffix(" online"), lambda x, m=m: x == m)
     return "\n".join(md) + "\n" + versus, "\n".join(csv) + "\n"
 
 
