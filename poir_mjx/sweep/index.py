@@ -96,13 +96,34 @@ def _page_links(results: Path, pattern: str, title: str) -> list[str]:
     return lines + [""]
 
 
+def _committed(paths: list[Path]) -> list[Path]:
+    """`paths` whose config.json is in git's index (committed or staged): a sweep still running in the work tree
+    is not published yet, so the page a clean clone generates is the one committed. All of them outside a git
+    work tree."""
+    if not paths:
+        return paths
+    try:
+        done = subprocess.run(["git", "ls-files", "-z", "--full-name", "--", *(str(p.resolve() / "config.json")
+                                                                               for p in paths)],
+                              cwd=paths[0].parent, capture_output=True, text=True, timeout=60)  # fmt: skip
+        top = subprocess.run(["git", "rev-parse", "--show-toplevel"], cwd=paths[0].parent, capture_output=True,
+                             text=True, timeout=60)  # fmt: skip
+    except (OSError, subprocess.SubprocessError):
+        return paths
+    if done.returncode != 0 or top.returncode != 0:
+        return paths
+    tracked = {(Path(top.stdout.strip()) / f).resolve() for f in done.stdout.split("\0") if f}
+    return [p for p in paths if (p.resolve() / "config.json") in tracked]
+
+
 def published_runs(results: Path) -> list[Path]:
-    """The run folders under `results` with a config.json and a summary.md that git does not ignore."""
+    """The run folders under `results` with a config.json and a summary.md that git does not ignore and, in a git
+    work tree, whose config.json git tracks."""
     results = Path(results)
     if not results.is_dir():
         raise ConfigError(f"{results}: no such results folder")
-    return _not_ignored(sorted(p for p in results.iterdir()
-                               if (p / "config.json").is_file() and (p / "summary.md").is_file()))  # fmt: skip
+    return _committed(_not_ignored(sorted(p for p in results.iterdir()
+                                          if (p / "config.json").is_file() and (p / "summary.md").is_file())))  # fmt: skip
 
 
 def generate(results: Path) -> str:

@@ -111,3 +111,27 @@ def test_tables_are_rewritten_from_the_cell_records(tmp_path, capsys):
     assert (run / "lift.png").is_file() and "Sweep grid" in (run / "summary.md").read_text()
     assert (results / "tiny" / "lift.md").read_text() == TABLE
     assert "| POIR-DRIL | +4 (p " in (results / "README.md").read_text()
+
+
+def test_in_a_git_work_tree_only_runs_whose_config_git_tracks_are_published(tmp_path):
+    """A sweep still running beside committed ones (its folder untracked) stays off the page until it is added,
+    so `make report` during a run writes the page a clean clone generates."""
+    import shutil
+    import subprocess
+
+    import pytest
+
+    if shutil.which("git") is None:
+        pytest.skip("no git on this machine")
+    results = _results(tmp_path)
+    running = results / "running"
+    running.mkdir()
+    (running / "config.json").write_text((results / "tiny" / "config.json").read_text())
+    (running / "summary.md").write_text("# Sweep running\n")
+    assert "running" in generate(results)  # outside a git work tree: every finished-looking run
+    subprocess.run(["git", "init", "-q", str(tmp_path)], check=True)
+    subprocess.run(["git", "add", "results/tiny"], cwd=tmp_path, check=True)
+    page = generate(results)
+    assert "## [tiny](tiny/)" in page and "running" not in page
+    subprocess.run(["git", "add", "results/running"], cwd=tmp_path, check=True)
+    assert "## [running](running/)" in generate(results)
