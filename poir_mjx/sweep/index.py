@@ -102,17 +102,15 @@ def _committed(paths: list[Path]) -> list[Path]:
     work tree."""
     if not paths:
         return paths
+    cwd = paths[0].parent
     try:
-        done = subprocess.run(["git", "ls-files", "-z", "--full-name", "--", *(str(p.resolve() / "config.json")
-                                                                               for p in paths)],
-                              cwd=paths[0].parent, capture_output=True, text=True, timeout=60)  # fmt: skip
-        top = subprocess.run(["git", "rev-parse", "--show-toplevel"], cwd=paths[0].parent, capture_output=True,
-                             text=True, timeout=60)  # fmt: skip
+        done = subprocess.run(["git", "ls-files", "-z", "--", *(str(p.resolve() / "config.json") for p in paths)],
+                              cwd=cwd, capture_output=True, text=True, timeout=60)  # fmt: skip
     except (OSError, subprocess.SubprocessError):
         return paths
-    if done.returncode != 0 or top.returncode != 0:
+    if done.returncode != 0:
         return paths
-    tracked = {(Path(top.stdout.strip()) / f).resolve() for f in done.stdout.split("\0") if f}
+    tracked = {(cwd / f).resolve() for f in done.stdout.split("\0") if f}  # ls-files names them relative to cwd
     return [p for p in paths if (p.resolve() / "config.json") in tracked]
 
 
