@@ -147,6 +147,9 @@ class DemosSuccess:
     """Initial arm-joint noise."""
     out: Path = Path("results/expert")
     """Output folder: success_<simulators>.{md,json}."""
+    batch: int = 0
+    """MJX episodes per compiled call (0: all at once). Each finished call's outcomes are kept in
+    <out>/.partial/ until the tables are written, so an interrupted run resumes after them."""
 
 
 @dataclasses.dataclass(frozen=True)

@@ -12,7 +12,8 @@ from poir_mjx.atomic import atomic_write_text
 from poir_mjx.core.config import ConfigError
 from poir_mjx.data import expert as ex
 from poir_mjx.data.demos import generate
-from poir_mjx.eval.expert_success import mjx_success, robosuite_success
+from poir_mjx.data.expert_episodes import EXPERT_STEPS
+from poir_mjx.eval.expert_success import mjx_partial_path, mjx_success, robosuite_success
 from poir_mjx.options import DemosGenerate, DemosSuccess
 from poir_mjx.versions import command_line
 
@@ -30,12 +31,18 @@ def run_generate(opts: DemosGenerate) -> int:
 
 
 def run_success(opts: DemosSuccess) -> int:
-    if opts.episodes <= 0:
-        raise ConfigError(f"--episodes: must be positive, got {opts.episodes}")
-    rows = []
+    if opts.episodes <= 0 or opts.batch < 0:
+        raise ConfigError(f"--episodes and --batch: must be positive (--batch 0: all at once), got {opts.episodes} and {opts.batch}")
+    rows, partials = [], []
     for task in opts.tasks:
         for sim in opts.simulator:
-            r = (mjx_success if sim == "mjx" else robosuite_success)(task, opts.episodes, opts.seed, opts.sigma_init)
+            if sim == "mjx":
+                partials.append(mjx_partial_path(opts.out / ".partial", task, opts.episodes, opts.seed, opts.sigma_init,
+                                                 EXPERT_STEPS[task]))  # fmt: skip
+                r = mjx_success(task, opts.episodes, opts.seed, opts.sigma_init, batch=opts.batch, partial=partials[-1],
+                                progress=True)  # fmt: skip
+            else:
+                r = robosuite_success(task, opts.episodes, opts.seed, opts.sigma_init)
             rows.append({"task": task, **r})
             print(f"{task} {sim}: {r['successes']}/{r['episodes']}", flush=True)
     dev = jax.devices()[0]
@@ -59,5 +66,7 @@ def run_success(opts: DemosSuccess) -> int:
     tag = "_".join(opts.simulator)
     atomic_write_text(opts.out / f"success_{tag}.md", table)
     atomic_write_text(opts.out / f"success_{tag}.json", json.dumps(rows, indent=2) + "\n")
+    for p in partials:  # their outcomes are in the tables now
+        p.unlink(missing_ok=True)
     print(table)
     return 0

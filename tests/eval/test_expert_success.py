@@ -1,0 +1,98 @@
+"""The expert's MJX success measurement (poir_mjx/eval/expert_success.py): batching does not change the episodes,
+finished batches are kept, an interrupted run resumes after them, a foreign record is refused by field.
+
+The MJX rollout is replaced by a stand-in whose outcomes are a function of each episode's key, so these tests check
+the bookkeeping (key order, padding, resume) without compiling the physics; the gpucheck dry run runs the real one."""
+
+import json
+
+import numpy as np
+import pytest
+
+from poir_mjx.cli.demos import run_success
+from poir_mjx.core.config import ConfigError
+from poir_mjx.data import mjx_demos
+from poir_mjx.eval import expert_success as es
+from poir_mjx.options import DemosSuccess
+
+SIGMA = 0.02
+
+
+def outcome(keys):
+    """The stand-in's per-episode outcome: (first success step or -1, diverged), a function of the key alone."""
+    k = np.asarray(keys, np.int64)
+    return np.where(k[:, 1] % 3 == 0, -1, 10 + k[:, 1] % 40), k[:, 0] % 4 == 0
+
+
+class StandIn:
+    def __init__(self, fail_after: int | None = None):
+        self.calls, self.batches, self.fail_after = 0, [], fail_after
+
+    def __call__(self, task, steps):
+        def rollout(_, keys, env_params):
+            if self.fail_after is not None and self.calls >= self.fail_after:
+                raise KeyboardInterrupt
+            self.calls += 1
+            self.batches.append(len(keys))
+            assert len(env_params.sigma_init) == len(keys)
+            first, div = outcome(keys)
+            return {"first_success": first, "diverged": div}, None
+
+        return rollout
+
+
+def expected(episodes, seed=1):
+    import jax
+
+    first, div = outcome(jax.random.split(jax.random.PRNGKey(seed), episodes))
+    ok = first >= 0
+    return {"successes": int(ok.sum()), "diverged": int(div.sum()), "length_mean": float(first[ok].mean())}
+
+
+def measure(monkeypatch, stand_in, **kw):
+    monkeypatch.setattr(mjx_demos, "expert_rollout", stand_in)
+    r = es.mjx_success("lift", kw.pop("episodes", 7), 1, SIGMA, steps=5, **kw)
+    return {k: r[k] for k in ("successes", "diverged", "length_mean")}
+
+
+def test_batching_keeps_the_episodes_and_drops_the_padding(monkeypatch):
+    whole, batched = StandIn(), StandIn()
+    assert measure(monkeypatch, whole) == expected(7) and whole.batches == [7]
+    assert measure(monkeypatch, batched, batch=3) == expected(7)
+    assert batched.batches == [3, 3, 3]  # one compiled shape; the last batch's two copies are dropped
+
+
+def test_an_interrupted_measurement_resumes_after_its_finished_batches(tmp_path, monkeypatch):
+    part = es.mjx_partial_path(tmp_path, "lift", 7, 1, SIGMA, 5)
+    with pytest.raises(KeyboardInterrupt):
+        measure(monkeypatch, StandIn(fail_after=2), batch=3, partial=part)
+    kept = json.loads(part.read_text())
+    assert len(kept["first_success"]) == 6 and kept["seconds"] > 0
+    rest = StandIn()
+    assert measure(monkeypatch, rest, batch=3, partial=part) == expected(7)
+    assert rest.batches == [3]  # only episode 6 was left
+    assert len(json.loads(part.read_text())["diverged"]) == 7
+
+
+def test_a_foreign_or_broken_record_is_refused_naming_the_field(tmp_path, monkeypatch):
+    part = es.mjx_partial_path(tmp_path, "lift", 7, 1, SIGMA, 5)
+    measure(monkeypatch, StandIn(), batch=4, partial=part)
+    rec = json.loads(part.read_text())
+    for field, value in (("seed", 2), ("diverged", "no"), ("first_success", [0] * 9)):
+        part.write_text(json.dumps({**rec, field: value}))
+        with pytest.raises(ConfigError, match=f"{part}: field '{field}'"):
+            measure(monkeypatch, StandIn(), batch=4, partial=part)
+    part.write_text("{not json")
+    with pytest.raises(ConfigError, match="not JSON"):
+        measure(monkeypatch, StandIn(), partial=part)
+
+
+def test_the_command_writes_the_table_then_drops_its_partial_records(tmp_path, monkeypatch):
+    monkeypatch.setattr(mjx_demos, "expert_rollout", StandIn())
+    assert run_success(DemosSuccess(tasks=("lift",), simulator=("mjx",), episodes=5, out=tmp_path, batch=2)) == 0
+    rows = json.loads((tmp_path / "success_mjx.json").read_text())
+    assert rows[0]["successes"] == expected(5)["successes"] and rows[0]["episodes"] == 5
+    assert "| lift | MJX | 5 |" in (tmp_path / "success_mjx.md").read_text()
+    assert not list((tmp_path / ".partial").glob("*.json"))
+    with pytest.raises(ConfigError, match="--batch"):
+        run_success(DemosSuccess(tasks=("lift",), simulator=("mjx",), episodes=5, out=tmp_path, batch=-1))
