@@ -129,6 +129,8 @@ class DemosGenerate:
     """robosuite (MuJoCo C, needs robosuite) or mjx (vectorised; -> <task>-mjx.hdf5)."""
     batch: int = 16
     """MJX episodes per compiled batch (GPU: 256-1024)."""
+    x64: bool = False
+    """Record MJX demos with float64 physics (jax_enable_x64): NutAssemblySquare's grasp needs it (see demos success)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -150,6 +152,9 @@ class DemosSuccess:
     batch: int = 0
     """MJX episodes per compiled call (0: all at once). Each finished call's outcomes are kept in
     <out>/.partial/ until the tables are written, so an interrupted run resumes after them."""
+    x64: bool = False
+    """Run the MJX physics in float64 (jax_enable_x64). NutAssemblySquare's grasp needs it in MJX: the expert succeeds
+    in 20 of 32 float32 episodes, 32 of 32 in float64 (docs/expert-data.md)."""
 
 
 @dataclasses.dataclass(frozen=True)

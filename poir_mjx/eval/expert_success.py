@@ -10,6 +10,7 @@ import jax
 import numpy as np
 
 from poir_mjx.atomic import atomic_write_text
+from poir_mjx.compat import x64_enabled
 from poir_mjx.core.config import ConfigError
 from poir_mjx.data import mjx_demos
 from poir_mjx.data.expert_episodes import EXPERT_STEPS, robosuite_episode
@@ -17,9 +18,11 @@ from poir_mjx.envs.env import make_params
 from poir_mjx.envs.tasks import make_robosuite
 
 
-def mjx_partial_path(folder: Path, task: str, episodes: int, seed: int, sigma_init: float, steps: int) -> Path:
-    """Where ``mjx_success`` keeps the outcomes of its finished batches: one file per measurement."""
-    return Path(folder) / f"success-{task}-mjx-n{episodes}-seed{seed}-si{sigma_init:g}-T{steps}.json"
+def mjx_partial_path(folder: Path, task: str, episodes: int, seed: int, sigma_init: float, steps: int,
+                     x64: bool = False) -> Path:  # fmt: skip
+    """Where ``mjx_success`` keeps the outcomes of its finished batches: one file per measurement and precision."""
+    name = f"success-{task}-mjx-n{episodes}-seed{seed}-si{sigma_init:g}-T{steps}{'-f64' if x64 else ''}.json"
+    return Path(folder) / name
 
 
 def _read_partial(path: Path | None, ident: dict) -> dict:
@@ -53,7 +56,8 @@ def mjx_success(task: str, episodes: int, seed: int, sigma_init: float, steps: i
     """
     steps = steps or EXPERT_STEPS[task]
     batch = episodes if batch <= 0 else min(batch, episodes)
-    ident = {"task": task, "episodes": episodes, "seed": seed, "sigma_init": sigma_init, "steps": steps}
+    ident = {"task": task, "episodes": episodes, "seed": seed, "sigma_init": sigma_init, "steps": steps,
+             "x64": x64_enabled()}  # a float32 run's batches are not resumed in float64, nor the reverse
     done = _read_partial(partial, ident)
     keys = jax.random.split(jax.random.PRNGKey(seed), episodes)
     params = make_params(np.full(batch, sigma_init), 0.0)

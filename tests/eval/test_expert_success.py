@@ -96,3 +96,35 @@ def test_the_command_writes_the_table_then_drops_its_partial_records(tmp_path, m
     assert not list((tmp_path / ".partial").glob("*.json"))
     with pytest.raises(ConfigError, match="--batch"):
         run_success(DemosSuccess(tasks=("lift",), simulator=("mjx",), episodes=5, out=tmp_path, batch=-1))
+
+
+@pytest.fixture
+def restore_x64():
+    import jax
+
+    prev = jax.config.jax_enable_x64
+    yield
+    jax.config.update("jax_enable_x64", prev)
+
+
+def test_x64_is_part_of_the_measurement_and_its_table(tmp_path, monkeypatch, restore_x64):
+    """--x64 runs the physics in float64 and the table says so; a float32 run's finished batches are not resumed by a
+    float64 run (another partial file, and a record of the other precision is refused by field)."""
+    part32 = es.mjx_partial_path(tmp_path, "lift", 7, 1, SIGMA, 5)
+    with pytest.raises(KeyboardInterrupt):
+        measure(monkeypatch, StandIn(fail_after=1), batch=3, partial=part32)
+    monkeypatch.setattr(mjx_demos, "expert_rollout", StandIn())
+    assert run_success(DemosSuccess(tasks=("lift",), simulator=("mjx",), episodes=5, out=tmp_path, batch=2,
+                                    x64=True)) == 0  # fmt: skip
+    assert "(x64 True)" in (tmp_path / "success_mjx.md").read_text()
+    assert es.mjx_partial_path(tmp_path, "lift", 7, 1, SIGMA, 5, x64=True) != part32
+    with pytest.raises(ConfigError, match=f"{part32}: field 'x64'"):
+        measure(monkeypatch, StandIn(), batch=3, partial=part32)
+
+
+def test_square_in_mjx_float32_gets_a_note_naming_the_flag(tmp_path, monkeypatch, capsys, restore_x64):
+    monkeypatch.setattr(mjx_demos, "expert_rollout", StandIn())
+    run_success(DemosSuccess(tasks=("nut_assembly_square",), simulator=("mjx",), episodes=2, out=tmp_path))
+    assert "--x64" in capsys.readouterr().err
+    run_success(DemosSuccess(tasks=("nut_assembly_square",), simulator=("mjx",), episodes=2, out=tmp_path, x64=True))
+    assert "--x64" not in capsys.readouterr().err
