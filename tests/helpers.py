@@ -6,11 +6,13 @@
   never showed, the y action scaled by ``gain_y``, y ~ N(0, sigma_init) at reset; success: x >= 1 while
   |y| < 0.05);
 - ``StepLearner``: a baseline learner whose progress is known in advance (the run loop, the sweep's cells);
-- ``make_demo``: a random robomimic demo with Lift's observation sizes.
+- ``make_demo``: a random robomimic demo with Lift's observation sizes;
+- ``x64``: jax_enable_x64 set inside a block, restored afterwards.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 
 import jax
@@ -122,3 +124,14 @@ def make_demo(t, seed):
     nxt = {k: rng.normal(size=(t, d)) for k, d in SIZES.items()}
     return Demo(obs=obs, next_obs=nxt, actions=rng.uniform(-1, 1, (t, 7)), rewards=np.zeros(t),
                 dones=np.r_[np.zeros(t - 1), 1], states=rng.normal(size=(t, 33)), model_file="<mujoco/>")
+
+
+@contextlib.contextmanager
+def x64(enabled: bool):
+    """jax_enable_x64 set to `enabled` inside the block, restored afterwards."""
+    prev = jax.config.jax_enable_x64
+    jax.config.update("jax_enable_x64", enabled)
+    try:
+        yield
+    finally:
+        jax.config.update("jax_enable_x64", prev)

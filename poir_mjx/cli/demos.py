@@ -10,6 +10,7 @@ import jax
 import numpy as np
 
 from poir_mjx.atomic import atomic_write_text
+from poir_mjx.compat import x64_enabled
 from poir_mjx.core.config import ConfigError
 from poir_mjx.data import expert as ex
 from poir_mjx.data.demos import generate
@@ -24,7 +25,7 @@ def set_precision(x64: bool, tasks, simulators) -> None:
     a note on stderr when NutAssemblySquare would run in MJX in float32, where the expert's grasp often fails."""
     if x64:
         jax.config.update("jax_enable_x64", True)
-    if not jax.config.jax_enable_x64 and "mjx" in simulators and "nut_assembly_square" in tasks:
+    if not x64_enabled() and "mjx" in simulators and "nut_assembly_square" in tasks:
         print("note: NutAssemblySquare in MJX runs in float32, where the scripted expert succeeds in 20 of 32 "
               "episodes (32 of 32 in float64; docs/expert-data.md); --x64 runs the physics in float64",
               file=sys.stderr)  # fmt: skip
@@ -52,7 +53,7 @@ def run_success(opts: DemosSuccess) -> int:
         for sim in opts.simulator:
             if sim == "mjx":
                 partials.append(mjx_partial_path(opts.out / ".partial", task, opts.episodes, opts.seed, opts.sigma_init,
-                                                 EXPERT_STEPS[task], x64=jax.config.jax_enable_x64))  # fmt: skip
+                                                 EXPERT_STEPS[task], x64=x64_enabled()))  # fmt: skip
                 r = mjx_success(task, opts.episodes, opts.seed, opts.sigma_init, batch=opts.batch, partial=partials[-1],
                                 progress=True)  # fmt: skip
             else:

@@ -1,6 +1,5 @@
 """Networks, planner and rewards run in float32 whatever jax_enable_x64 is (MJX physics may run in float64)."""
 
-import contextlib
 import dataclasses
 
 import jax
@@ -11,7 +10,7 @@ import pytest
 from poir_mjx.core import checkpoint, rewards
 from poir_mjx.core.agent import POIR, top_k_mean
 from poir_mjx.core.config import MLPConfig, PlannerConfig, POIRConfig, TrainConfig
-from tests.helpers import expert_data
+from tests.helpers import expert_data, x64
 
 CFG = POIRConfig(
     ensemble_size=2,
@@ -21,17 +20,6 @@ CFG = POIRConfig(
     planner=PlannerConfig(num_trajectories=8, horizon=2, sigma=0.5, top_k=2, reward="l2"),
 )
 OBS64 = np.array([0.2, 0.3], np.float64)
-
-
-@contextlib.contextmanager
-def x64(enabled: bool):
-    """jax_enable_x64 set to `enabled` inside the block, restored afterwards."""
-    prev = jax.config.jax_enable_x64
-    jax.config.update("jax_enable_x64", enabled)
-    try:
-        yield
-    finally:
-        jax.config.update("jax_enable_x64", prev)
 
 
 def _agent(**planner):

@@ -14,6 +14,7 @@ from poir_mjx.core.config import ConfigError
 from poir_mjx.data import mjx_demos
 from poir_mjx.eval import expert_success as es
 from poir_mjx.options import DemosSuccess
+from tests.helpers import x64
 
 SIGMA = 0.02
 
@@ -100,11 +101,8 @@ def test_the_command_writes_the_table_then_drops_its_partial_records(tmp_path, m
 
 @pytest.fixture
 def restore_x64():
-    import jax
-
-    prev = jax.config.jax_enable_x64
-    yield
-    jax.config.update("jax_enable_x64", prev)
+    with x64(False):  # the commands may turn it on; restored afterwards
+        yield
 
 
 def test_x64_is_part_of_the_measurement_and_its_table(tmp_path, monkeypatch, restore_x64):
