@@ -191,7 +191,7 @@ GPU_PYTHON     ?= python3
 GPU_SITE       ?= /tmp/poir-mjx-site
 GPU_OUT        ?= results/gpu
 GPU_CHECK_ARGS ?=
-GPU_ENV = PYTHONPATH=$(CURDIR):$(GPU_SITE) JAX_COMPILATION_CACHE_DIR=$(CURDIR)/.cache/jax-gpu
+GPU_ENV = PYTHONPATH=$(CURDIR):$(GPU_SITE) JAX_COMPILATION_CACHE_DIR=$(CURDIR)/.cache/jax-gpu MUJOCO_GL=disable
 
 gpu-check:
 	@if ls .whl/*.whl >/dev/null 2>&1; then $(GPU_PYTHON) -m pip install -q --no-index --no-deps --no-compile \

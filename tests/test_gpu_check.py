@@ -51,7 +51,7 @@ def test_dry_run_runs_every_stage_and_a_rerun_skips_them(tmp_path, capsys):
     rows = {s: json.loads((out / f"{s}.json").read_text())["rows"] for s in STAGES}
     assert [r["batch"] for r in rows["env"]] == [1] and all(r["control_steps_per_s"] > 0 for r in rows["env"])
     assert {r["reward"] for r in rows["planner"]} == {"dril", "l2", "morel"}
-    assert all(r["flops_per_call"] and r["flops_per_call"] > 0 for r in rows["planner"])
+    assert all(r["matmul_flops_per_call"] > 0 and r["achieved_flop_s"] > 0 for r in rows["planner"])
     assert [r["method"] for r in rows["e2e"]] == ["EBC", "POIR-DRIL"] and rows["e2e"][0]["demo_simulator"] == "mjx"
     assert {(r["method"], r["episodes"]) for r in rows["sweep"]} == {("EBC", 2), ("POIR-DRIL", 2)}
     assert rows["expert"][0]["task"] == "lift" and rows["expert"][0]["episodes"] == 2

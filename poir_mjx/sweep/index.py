@@ -131,13 +131,14 @@ def generate(results: Path) -> str:
     lines = ["# Results", "", HEADER, "",
              "One section per published run (its folder holds `config.json`, every table, the plots and, for the "
              "prior study, the cell records), then the tables across runs, the benchmarks and the expert's success "
-             "rate. The reading of these runs: [docs/results.md](../docs/results.md), "
+             "rate and the GPU check. The reading of these runs: [docs/results.md](../docs/results.md), "
              "[docs/results-prior.md](../docs/results-prior.md).", ""]  # fmt: skip
     for run in runs:
         lines += _run_section(run)
     lines += _page_links(results, "*.md", "Tables across runs")
     lines += _page_links(results, "bench/*.md", "Benchmarks")
     lines += _page_links(results, "expert/*.md", "The scripted expert's success rate")
+    lines += _page_links(results, "gpu/*.md", "On a GPU (make gpu-check)")
     return "\n".join(lines).rstrip("\n") + "\n"
 
 

@@ -6,13 +6,16 @@ Files by idea: ``config.py`` (what to render), ``record.py`` (the states, from t
 ``video.py`` (the pieces together).
 
 MuJoCo chooses its OpenGL backend when it is first imported: on Linux this package sets
-``MUJOCO_GL=egl`` (headless) unless it is set, so import it before mujoco or set the variable yourself.
+``MUJOCO_GL=egl`` (headless) unless it is set, so import it before mujoco or set the variable yourself. It does so
+only where libEGL can be found: with ``egl`` and no libEGL, ``import mujoco`` itself fails (PyOpenGL raises
+AttributeError, which mujoco does not catch), so every command, not only ``video``, would stop.
 """
 
+import ctypes.util
 import os
 import sys
 
-if sys.platform.startswith("linux"):
+if sys.platform.startswith("linux") and ctypes.util.find_library("EGL"):
     os.environ.setdefault("MUJOCO_GL", "egl")
 
 from poir_mjx.video.config import VideoConfig  # noqa: E402

@@ -33,6 +33,8 @@ def _results(tmp_path: Path) -> Path:
     (unfinished / "config.json").write_text(json.dumps({**cfg, "name": "unfinished"}))
     (results / "bench").mkdir()
     (results / "bench" / "e2e.md").write_text("# End-to-end throughput\n")
+    (results / "gpu").mkdir()
+    (results / "gpu" / "notes.md").write_text("# The first GPU run\n")
     return results
 
 
@@ -46,6 +48,7 @@ def test_the_page_holds_each_runs_setup_notes_tables_and_plots(tmp_path, capsys)
     assert "overrides: train.epochs=1" in page and "Made by a test on no machine at all." in page
     assert "### lift" in page and "| EBC | 0.50 [0.09, 0.91] |" in page and "[lift.png](tiny/lift.png)" in page
     assert "- [bench/e2e.md](bench/e2e.md): End-to-end throughput" in page
+    assert "- [gpu/notes.md](gpu/notes.md): The first GPU run" in page
     assert page == generate(results)
 
 

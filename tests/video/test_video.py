@@ -166,3 +166,27 @@ def test_missing_gl_library_is_one_line_and_exit_2(backend, tmp_path):
     assert p.returncode == 2, p.stderr
     errors = [line for line in p.stderr.splitlines() if line.strip()]
     assert len(errors) == 1 and errors[0].startswith("error: ") and "apt-get install" in errors[0], p.stderr
+
+
+_IMPORT_WITHOUT_EGL = """
+import ctypes.util, os
+real = ctypes.util.find_library
+ctypes.util.find_library = lambda name: None if name == "EGL" else real(name)
+import poir_mjx.video
+print(os.environ.get("MUJOCO_GL"))
+import mujoco
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="MUJOCO_GL=egl is chosen on Linux only")
+@pytest.mark.parametrize("egl", [True, False])
+def test_egl_chosen_only_where_libegl_is_found(egl):
+    """A machine without libEGL (the lent GPU's image) must still import mujoco: MUJOCO_GL=egl there made
+    `import mujoco` raise AttributeError in PyOpenGL, so every command failed, not only `video`."""
+    if egl and not ctypes.util.find_library("EGL"):
+        pytest.skip("no libEGL here")
+    env = {k: v for k, v in os.environ.items() if k != "MUJOCO_GL"}
+    code = _IMPORT_WITHOUT_EGL if not egl else "import os, poir_mjx.video; print(os.environ.get('MUJOCO_GL'))"
+    p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.split()[0] == ("egl" if egl else "None")
