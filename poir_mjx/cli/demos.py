@@ -15,6 +15,7 @@ from poir_mjx.core.config import ConfigError
 from poir_mjx.data import expert as ex
 from poir_mjx.data.demos import generate
 from poir_mjx.data.expert_episodes import EXPERT_STEPS
+from poir_mjx.envs.tasks import float32_square_note
 from poir_mjx.eval.expert_success import mjx_partial_path, mjx_success, robosuite_success
 from poir_mjx.options import DemosGenerate, DemosSuccess
 from poir_mjx.versions import command_line
@@ -25,10 +26,9 @@ def set_precision(x64: bool, tasks, simulators) -> None:
     a note on stderr when NutAssemblySquare would run in MJX in float32, where the expert's grasp often fails."""
     if x64:
         jax.config.update("jax_enable_x64", True)
-    if not x64_enabled() and "mjx" in simulators and "nut_assembly_square" in tasks:
-        print("note: NutAssemblySquare in MJX runs in float32, where the scripted expert succeeds in 20 of 32 "
-              "episodes (32 of 32 in float64; docs/expert-data.md); --x64 runs the physics in float64",
-              file=sys.stderr)  # fmt: skip
+    note = float32_square_note(tasks, simulators, x64_enabled(), "--x64")
+    if note:
+        print(note, file=sys.stderr)
 
 
 def run_generate(opts: DemosGenerate) -> int:

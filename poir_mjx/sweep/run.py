@@ -33,6 +33,8 @@ from pathlib import Path
 
 import jax
 
+from poir_mjx.compat import x64_enabled
+from poir_mjx.envs.tasks import float32_square_note
 from poir_mjx.sweep import run_folder
 from poir_mjx.sweep.artifacts import demos_for, train_or_load
 from poir_mjx.sweep.cells import CellBatch, run_baseline_cells, run_offline_cells, run_online_cells
@@ -61,6 +63,9 @@ def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: 
     if progress:  # once, what runs (the known import-time warnings are silenced: poir_mjx/quiet.py)
         print(f"sweep {cfg.name}: evaluation in {simulator_line(cfg.simulator)}; {stack_line()}; {machine_line()}",
               file=sys.stderr, flush=True)  # fmt: skip
+        note = float32_square_note(cfg.tasks, (cfg.simulator, cfg.demo_simulator), x64_enabled(), "JAX_ENABLE_X64=1")
+        if note:
+            print(note, file=sys.stderr, flush=True)
     demos = {task: demos_for(cfg, task, data_dir, progress) for task in cfg.tasks}  # (transitions, provenance)
     plan = SweepPlan.build(cfg, out, {task: prov["sha256"] for task, (_, prov) in demos.items()})
     grid = plan.grid
