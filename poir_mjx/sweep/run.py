@@ -63,7 +63,8 @@ def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: 
     if progress:  # once, what runs (the known import-time warnings are silenced: poir_mjx/quiet.py)
         print(f"sweep {cfg.name}: evaluation in {simulator_line(cfg.simulator)}; {stack_line()}; {machine_line()}",
               file=sys.stderr, flush=True)  # fmt: skip
-        note = float32_square_note(cfg.tasks, (cfg.simulator, cfg.demo_simulator), x64_enabled(), "JAX_ENABLE_X64=1")
+        note = float32_square_note(cfg.tasks, (cfg.simulator, cfg.demo_simulator), cfg.x64 or x64_enabled(),
+                                   '"x64": true in the sweep config')  # fmt: skip
         if note:
             print(note, file=sys.stderr, flush=True)
     demos = {task: demos_for(cfg, task, data_dir, progress) for task in cfg.tasks}  # (transitions, provenance)

@@ -146,4 +146,8 @@ def test_a_sweep_notes_square_in_float32_mjx(tasks, simulator, demo_simulator, n
         run.run_sweep(cfg, tmp_path / "results", tmp_path / "data", tmp_path / "ckpt")
     err = capsys.readouterr().err
     assert ("NutAssemblySquare in MJX runs in float32" in err) == noted
-    assert ("JAX_ENABLE_X64=1 runs the physics in float64" in err) == noted
+    assert ('"x64": true in the sweep config runs the physics in float64' in err) == noted
+    with pytest.raises(_Stop):  # a float64 sweep gets no note
+        run.run_sweep(dataclasses.replace(cfg, x64=True), tmp_path / "results", tmp_path / "data", tmp_path / "ckpt",
+                      replace_config=True)  # fmt: skip
+    assert "NutAssemblySquare in MJX runs in float32" not in capsys.readouterr().err
