@@ -43,6 +43,5 @@ def planner_matmul_flops(agent, params, episodes: int = 1) -> int:
         chunk = min(pc.l2_chunk, e)
         per_step += 2 * cells * d * (-(-e // chunk) * chunk)
     # The model steps: where the reward scores (s, a), the last step's next state is unused and XLA drops it.
-    score_next = pc.reward != "morel" and pc.reward_timing == "next_state"
-    model_steps = pc.horizon if score_next else pc.horizon - 1
+    model_steps = pc.horizon if agent.scores_next_state() else pc.horizon - 1
     return episodes * (pc.horizon * per_step + model_steps * cells * wm)

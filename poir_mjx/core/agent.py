@@ -218,13 +218,18 @@ class POIR:
             r, level = self._morel(params, s, a), params.morel_level
         return rewards.excess(r, level) if pc.disagreement == "excess" else r
 
+    def scores_next_state(self) -> bool:
+        """Whether the reward scores the state an action leads to (else the (s, a) it is taken in: MOREL always)."""
+        pc = self.config.planner
+        return pc.reward != "morel" and pc.reward_timing == "next_state"
+
     def rollouts(self, params: POIRParams, obs: jax.Array, key: jax.Array):
         """Imagined trajectories: returns (returns [K, M] with -inf on padding, first actions [K, M, da])."""
         pc = self.config.planner
         k, m = self.head_layout()
         lo, hi = self._act_bounds(params)
         s0 = jnp.broadcast_to(self.normalize_obs(params, obs), (k, m, self.obs_size))
-        score_next = pc.reward != "morel" and pc.reward_timing == "next_state"
+        score_next = self.scores_next_state()
         keys = jax.random.split(key, pc.horizon)
 
         def body(carry, xs):
