@@ -19,7 +19,7 @@ LAYERS = (
     {"eval"},
     {"online"},
     {"sweep"},
-    {"bench", "video"},
+    {"bench", "video", "diagnose"},
     {"gpucheck"},
     {"cli"},
 )

@@ -5,6 +5,7 @@
     compare RUN... [--out F]                                             one table across runs (make ablations)
     report [--results results] [--check]                                 results/README.md from the runs (make report)
     video --run RUN --method M [--versus M2] --sigma-init S              a cell's episodes as an MP4 (make video)
+    diagnose --run RUN [--method POIR-L2] [--sigma-init 0.02 0.3]       planner forensics with the oracle (make diagnose)
     envs / demos generate / demos success / bench env|planner|e2e|robosuite        the other make targets
 
 Each subcommand is a frozen dataclass of its options (``poir_mjx/options.py``, or the module that
@@ -37,6 +38,8 @@ COMMANDS: tuple[Command, ...] = (
     Command("bench robosuite", o.BenchRobosuite, "poir_mjx.bench.robosuite:run"),
     Command("gpu-check", o.GpuCheck, "poir_mjx.gpucheck.command:run"),
     Command("video", "poir_mjx.video:VideoConfig", "poir_mjx.video.command:run", "poir_mjx.video.render:check_gl"),
+    Command("diagnose", "poir_mjx.diagnose.config:DiagnoseConfig", "poir_mjx.diagnose.run:run",
+            "poir_mjx.diagnose.config:require_robosuite"),
 )
 # Subcommand groups: (help line, the subcommand run when none is named or None).
 GROUPS = {

@@ -43,6 +43,16 @@ class POIRParams:
     morel_level: jax.Array  # the same for MOREL's reward model on the expert transitions (0 without one), []
 
 
+@struct.dataclass
+class Imagined:
+    """One planner call's imagined trajectories in the [K, M] head layout (normalised spaces)."""
+
+    returns: jax.Array  # [K, M], -inf on padding cells (n >= N)
+    actions: jax.Array  # [H, K, M, da] the candidate actions, step by step (actions[0]: the first actions)
+    states: jax.Array  # [H + 1, K, M, ds] the real state, then the world model's predictions
+    step_rewards: jax.Array  # [H, K, M] the imitation reward of each step
+
+
 @dataclasses.dataclass(frozen=True)
 class POIR:
     config: POIRConfig
@@ -225,6 +235,17 @@ class POIR:
 
     def rollouts(self, params: POIRParams, obs: jax.Array, key: jax.Array):
         """Imagined trajectories: returns (returns [K, M] with -inf on padding, first actions [K, M, da])."""
+        ret, first, _ = self._imagine(params, obs, key, record=False)
+        return ret, first
+
+    def imagine(self, params: POIRParams, obs: jax.Array, key: jax.Array) -> Imagined:
+        """The same imagined trajectories as ``rollouts`` (same key, same candidates), every step kept: what the
+        planner forensics (poir_mjx/diagnose) read."""
+        ret, _, (actions, states, step_rewards) = self._imagine(params, obs, key, record=True)
+        s0 = jnp.broadcast_to(self.normalize_obs(params, obs), states.shape[1:])
+        return Imagined(ret, actions, jnp.concatenate([s0[None], states]), step_rewards)
+
+    def _imagine(self, params: POIRParams, obs: jax.Array, key: jax.Array, record: bool):
         pc = self.config.planner
         k, m = self.head_layout()
         lo, hi = self._act_bounds(params)
@@ -242,15 +263,15 @@ class POIR:
                 a = jax.random.uniform(kt, (k, m, self.act_size), jnp.float32, minval=lo, maxval=hi)
             a = jnp.clip(a, lo, hi)
             s_next = self._clip(s + ens.apply_each(self.wm_module, params.wm, jnp.concatenate([s, a], -1)))
-            ret = ret + self.trajectory_rewards(params, s_next if score_next else s, a)
+            r = self.trajectory_rewards(params, s_next if score_next else s, a)
             first = jnp.where(t == 0, a, first)
-            return (s_next, ret, first), None
+            return (s_next, ret + r, first), ((a, s_next, r) if record else None)
 
         init = (s0, jnp.zeros((k, m), jnp.float32), jnp.zeros((k, m, self.act_size), jnp.float32))
-        (_, ret, first), _ = jax.lax.scan(body, init, (jnp.arange(pc.horizon), keys))
+        (_, ret, first), steps = jax.lax.scan(body, init, (jnp.arange(pc.horizon), keys))
         n = jnp.arange(k)[:, None] + k * jnp.arange(m)[None, :]
         ret = jnp.where(n < pc.num_trajectories, ret, -jnp.inf)
-        return ret, first
+        return ret, first, steps
 
     def real_trajectories(self, ret: jax.Array, first: jax.Array) -> tuple[jax.Array, jax.Array]:
         """The N real trajectories of a [K, M] layout, in the order n = 0..N-1 (padding cells dropped):

@@ -14,8 +14,21 @@ import numpy as np
 from poir_mjx.data.robomimic import robosuite_obs
 
 
-def _flat_obs(o) -> np.ndarray:
+def flat_obs(o) -> np.ndarray:
+    """The policy's observation vector (robomimic's low-dim keys, float32) from a robosuite observation dict."""
     return np.concatenate(list(robosuite_obs(o).values()))
+
+
+def start_episode(task: str, seed: int, sigma_init: float):
+    """A fresh robosuite environment for one episode, as every evaluation starts it: (env, action-noise generator,
+    first observation vector). Built with the episode's seed and arm noise: robosuite rebuilds its model at every
+    reset anyway (hard reset), and only construction seeds all of its draws (arm noise, object placement, Lift's
+    cube size)."""
+    from poir_mjx.envs.tasks import make_robosuite
+
+    env = make_robosuite(task, seed=int(seed), initialization_noise={"magnitude": float(sigma_init), "type": "gaussian"})
+    noise = np.random.default_rng(np.random.SeedSequence(int(seed)).spawn(1)[0])
+    return env, noise, flat_obs(env.reset())
 
 
 def serve(recv, send, task: str, n_envs: int) -> None:
@@ -26,8 +39,6 @@ def serve(recv, send, task: str, n_envs: int) -> None:
     The first message must be a "reset" with at least one episode.
     """
     import logging
-
-    from poir_mjx.envs.tasks import make_robosuite
 
     logging.getLogger("robosuite_logs").setLevel(logging.ERROR)
     envs, last = [None] * n_envs, [None] * n_envs
@@ -40,15 +51,10 @@ def serve(recv, send, task: str, n_envs: int) -> None:
         if msg[0] == "reset":  # ("reset", [(seed, sigma_init, sigma_action), ...])
             alive[:] = False
             for j, (seed, si, sa) in enumerate(msg[1]):
-                # A fresh environment per episode, built with the episode's seed and noise: robosuite
-                # rebuilds its model at every reset anyway (hard reset), and only construction seeds
-                # all of its draws (arm noise, object placement, Lift's cube size).
                 if envs[j] is not None:
                     envs[j].close()
-                envs[j] = make_robosuite(task, seed=int(seed), initialization_noise={"magnitude": float(si), "type": "gaussian"})
-                noise[j] = np.random.default_rng(np.random.SeedSequence(int(seed)).spawn(1)[0])
+                envs[j], noise[j], last[j] = start_episode(task, seed, si)
                 sig_a[j], alive[j] = float(sa), True
-                last[j] = _flat_obs(envs[j].reset())
                 success[j] = bool(envs[j]._check_success())
         else:  # ("step", actions [n_envs, 7], stop [n_envs]): end the flagged episodes, step the others
             actions = msg[1]
@@ -62,7 +68,7 @@ def serve(recv, send, task: str, n_envs: int) -> None:
                 except Exception:  # MuJoCo's instability errors: the episode diverged
                     ok = False
                 if ok:
-                    last[j], success[j] = _flat_obs(o), bool(env._check_success())
+                    last[j], success[j] = flat_obs(o), bool(env._check_success())
                 else:
                     alive[j], diverged[j] = False, True
         width = next(len(x) for x in last if x is not None)

@@ -44,14 +44,14 @@ def test_mask_ends_at_success_and_transitions_chain(collected):
 def test_transitions_replay_in_a_fresh_robosuite_environment(collected):
     """Stepping robosuite from the episode's seed with the recorded actions gives the recorded states."""
     from poir_mjx.envs.tasks import make_robosuite
-    from poir_mjx.eval.robosuite_worker import _flat_obs
+    from poir_mjx.eval.robosuite_worker import flat_obs
 
     keys, sigma_init, out, (obs, act, nxt, valid), _ = collected
     seeds, _ = robosuite_eval.episode_streams(keys, STEPS)
     e = 0
     env = make_robosuite("lift", seed=int(seeds[e]), initialization_noise={"magnitude": float(sigma_init[e]), "type": "gaussian"})
-    np.testing.assert_array_equal(_flat_obs(env.reset()), obs[e, 0])
+    np.testing.assert_array_equal(flat_obs(env.reset()), obs[e, 0])
     for t in range(int(valid[e].sum())):
         o, _, _, _ = env.step(act[e, t].astype(np.float64))
-        np.testing.assert_allclose(_flat_obs(o), nxt[e, t], rtol=0, atol=1e-6)
+        np.testing.assert_allclose(flat_obs(o), nxt[e, t], rtol=0, atol=1e-6)
     env.close()
