@@ -27,6 +27,8 @@ from flax import struct
 
 from poir_mjx.core import ensemble as ens
 from poir_mjx.core import rewards
+from poir_mjx.core import selection as sel
+from poir_mjx.core.selection import top_k_mean  # noqa: F401  (the planner's top-k, re-exported)
 from poir_mjx.core.config import POIRConfig
 from poir_mjx.core.normalizer import Normalizer, observation_floor
 
@@ -208,7 +210,10 @@ class POIR:
         return k, -(-self.config.planner.num_trajectories // k)
 
     def _dril(self, params: POIRParams, s: jax.Array) -> jax.Array:
-        return rewards.dril_reward(self._bc_all(params, s))
+        actions = self._bc_all(params, s)
+        if self.config.planner.dril_units == "action":  # the heads' disagreement in robosuite's action units
+            actions = actions * params.act_norm.std
+        return rewards.dril_reward(actions)
 
     def _morel(self, params: POIRParams, s: jax.Array, a: jax.Array) -> jax.Array:
         """MOREL on the predicted next states as the rollout sees them (clipped when normalizer.clip > 0)."""
@@ -252,6 +257,7 @@ class POIR:
         s0 = jnp.broadcast_to(self.normalize_obs(params, obs), (k, m, self.obs_size))
         score_next = self.scores_next_state()
         keys = jax.random.split(key, pc.horizon)
+        all_models = pc.scoring == "all_models"  # the actions are kept to roll them through every model
 
         def body(carry, xs):
             s, ret, first = carry
@@ -259,25 +265,54 @@ class POIR:
             if pc.use_prior:
                 prior = self._bc_each(params, s)
                 a = prior + pc.sigma * jax.random.normal(kt, prior.shape, jnp.float32)
+                if pc.gripper_noise == "flip":
+                    a = self._flip_gripper(params, prior, a, jax.random.fold_in(kt, 1))
             else:
                 a = jax.random.uniform(kt, (k, m, self.act_size), jnp.float32, minval=lo, maxval=hi)
             a = jnp.clip(a, lo, hi)
             s_next = self._clip(s + ens.apply_each(self.wm_module, params.wm, jnp.concatenate([s, a], -1)))
             r = self.trajectory_rewards(params, s_next if score_next else s, a)
             first = jnp.where(t == 0, a, first)
-            return (s_next, ret + r, first), ((a, s_next, r) if record else None)
+            return (s_next, ret + r, first), ((a, s_next, r) if record else a if all_models else None)
 
         init = (s0, jnp.zeros((k, m), jnp.float32), jnp.zeros((k, m, self.act_size), jnp.float32))
         (_, ret, first), steps = jax.lax.scan(body, init, (jnp.arange(pc.horizon), keys))
-        n = jnp.arange(k)[:, None] + k * jnp.arange(m)[None, :]
-        ret = jnp.where(n < pc.num_trajectories, ret, -jnp.inf)
+        real = sel.real_mask(k, m, pc.num_trajectories)
+        if all_models:
+            ret = self._all_models_score(params, s0, steps[0] if record else steps)
+        ret = jnp.where(real, ret, -jnp.inf)
+        if pc.scoring == "head_centred":
+            ret = sel.head_centred(ret, real)
         return ret, first, steps
+
+    def _all_models_score(self, params: POIRParams, s0: jax.Array, actions: jax.Array) -> jax.Array:
+        """scoring "all_models": each trajectory's actions [H, K, M, da] rolled open-loop from s0 [K, M, ds] through
+        every world model; the mean of the K models' returns minus scoring_lambda times their std, [K, M]."""
+        pc = self.config.planner
+        kw = self.config.ensemble_size
+        score_next = self.scores_next_state()
+
+        def body(s, a):  # s [Kw, K, M, ds]: model w's prediction of every trajectory
+            a = jnp.broadcast_to(a, (kw, *a.shape))
+            s_next = self._clip(s + ens.apply_each(self.wm_module, params.wm, jnp.concatenate([s, a], -1)))
+            return s_next, self.trajectory_rewards(params, s_next if score_next else s, a)
+
+        _, r = jax.lax.scan(body, jnp.broadcast_to(s0, (kw, *s0.shape)), actions)
+        ret = r.sum(0)  # [Kw, K, M]
+        return ret.mean(0) - pc.scoring_lambda * ret.std(0)
+
+    def _flip_gripper(self, params: POIRParams, prior: jax.Array, a: jax.Array, key: jax.Array) -> jax.Array:
+        """gripper_noise "flip": the candidates' gripper command (normalised a) set to a full command with the prior's
+        sign, reversed with probability gripper_flip_prob (robosuite acts on the gripper command's sign only)."""
+        sign = jnp.where(params.act_norm.inverse(prior)[..., -1] >= 0, 1.0, -1.0)
+        flip = jax.random.bernoulli(key, self.config.planner.gripper_flip_prob, sign.shape)
+        env = params.act_norm.inverse(a).at[..., -1].set(jnp.where(flip, -sign, sign))
+        return params.act_norm(env)
 
     def real_trajectories(self, ret: jax.Array, first: jax.Array) -> tuple[jax.Array, jax.Array]:
         """The N real trajectories of a [K, M] layout, in the order n = 0..N-1 (padding cells dropped):
         (returns [N], first actions [N, da])."""
-        n = self.config.planner.num_trajectories
-        return ret.T.reshape(-1)[:n], first.transpose(1, 0, 2).reshape(-1, self.act_size)[:n]
+        return sel.real_trajectories(ret, first, self.config.planner.num_trajectories)
 
     def plan(self, params: POIRParams, obs: jax.Array, key: jax.Array) -> jax.Array:
         """SelectAction: the mean first action of the top-k imagined trajectories, in env units (float32)."""
@@ -285,15 +320,11 @@ class POIR:
         return self._to_env_action(params, self.select(ret, first, key))
 
     def select(self, ret: jax.Array, first: jax.Array, key: jax.Array) -> jax.Array:
-        """The mean first action (normalised) of the top_k chosen among the real trajectories of a [K, M]
-        layout: the k best returns, or ("random") k drawn uniformly, from a key stream of its own so
-        that the rollouts are those the same key's top-k planner scores."""
+        """The mean first action (normalised) of the top_k chosen among the real trajectories of a [K, M] layout
+        (``core/selection.py``): the k best returns, k drawn uniformly ("random", from a key stream of its own, so
+        the rollouts are those the same key's top-k planner scores) or the best of every head ("head_balanced")."""
         pc = self.config.planner
-        ret, first = self.real_trajectories(ret, first)
-        if pc.selection == "random":
-            pick = jax.random.choice(jax.random.fold_in(key, 0x5E1EC7), pc.num_trajectories, (pc.top_k,), replace=False)
-            return first[pick].mean(0)
-        return top_k_mean(ret, first, pc.top_k)
+        return sel.select(pc.selection, ret, first, key, pc.num_trajectories, pc.top_k)
 
 
 @functools.lru_cache(maxsize=32)
@@ -303,12 +334,3 @@ def _disagreement_fn(agent: POIR, reward: str):
     if reward == "dril":
         return jax.jit(lambda p, x: -agent._dril(p, x))
     return jax.jit(lambda p, x: -agent._morel(p, x[:, : agent.obs_size], x[:, agent.obs_size :]))
-
-
-def top_k_mean(returns: jax.Array, actions: jax.Array, k: int) -> jax.Array:
-    """Mean of the actions of the k largest returns (k = 1: argmax). returns [N], actions [N, d].
-
-    NaN returns rank last (as -inf): ``lax.top_k`` would rank them first.
-    """
-    _, top = jax.lax.top_k(jnp.where(jnp.isnan(returns), -jnp.inf, returns), k)
-    return actions[top].mean(0)

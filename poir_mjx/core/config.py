@@ -66,10 +66,31 @@ class PlannerConfig:
     algorithm as printed, r(s^_t, a~_t) for t = 1..H, whose first term is the same for every
     trajectory (all returns tie at H = 1) and which never scores the last predicted state. MOREL
     always scores (s^_t, a~_t): its disagreement is about the transition a~_t starts."""
-    selection: Literal["top_k", "random"] = "top_k"
-    """How the top_k trajectories are chosen: "top_k" (the paper: the k largest returns) or "random"
+    selection: Literal["top_k", "random", "head_balanced"] = "top_k"
+    """How the top_k trajectories are chosen: "top_k" (the paper: the k largest returns), "random"
     (a control: k drawn uniformly among the N real trajectories, the returns ignored), which separates
-    what the prior's noise does from what the reward's ranking does."""
+    what the prior's noise does from what the reward's ranking does, or "head_balanced" (the best
+    max(1, top_k // K) of every head, averaged over all heads: the ranking chooses noise within a head,
+    never which head; core/selection.py)."""
+    scoring: Literal["own_model", "head_centred", "all_models"] = "own_model"
+    """What a trajectory's score is: "own_model" (the paper as printed: its return under the one world model
+    its head rolled it through), "head_centred" (that return minus its head's mean return: a head's own model
+    error no longer ranks its trajectories as a block) or "all_models" (its action sequence rolled open-loop
+    through every world model of the ensemble, the mean return minus scoring_lambda times their std: the
+    paper's "average reward over all ensemble members"; K times the world-model and reward cost)."""
+    scoring_lambda: float = 0.0
+    """With scoring "all_models": the score is mean - scoring_lambda * std of the K models' returns."""
+    gripper_noise: Literal["gaussian", "flip"] = "gaussian"
+    """The candidates' gripper action: "gaussian" (the paper: sigma noise like every dimension; robosuite acts
+    on the sign only, and the expert's commands sit at the bounds, so the noise rarely changes what the robot
+    does) or "flip" (a full open or close command, the prior's sign flipped with probability
+    gripper_flip_prob, so the ranking can choose between opening and closing)."""
+    gripper_flip_prob: float = 0.1
+    """With gripper_noise "flip": the probability that a candidate's gripper command is the prior's reversed."""
+    dril_units: Literal["normalized", "action"] = "normalized"
+    """The space DRIL measures the BC heads' disagreement in: "normalized" (the planner's normalised actions:
+    each dimension divided by the expert's std, so a rotation dimension with std 0.012 weighs 80 times a
+    position one) or "action" (robosuite's action units, the space the raw-trained heads were fitted in)."""
     disagreement: Literal["raw", "excess"] = "raw"
     """DRIL / MOREL rewards: "raw" (the paper: minus the ensemble's disagreement) or "excess" (minus the
     disagreement beyond the expert data's own level, its `disagreement_quantile` quantile on the expert
@@ -77,9 +98,16 @@ class PlannerConfig:
     disagreement_quantile: float = 0.98
     """The quantile of the expert data's own disagreement that "excess" subtracts (DRIL paper: 0.98)."""
 
-    ZERO_OK = ("l2_approx_size", "head_chunk")
+    ZERO_OK = ("l2_approx_size", "head_chunk", "scoring_lambda")
+    UNIT = ("gripper_flip_prob",)
+    # Fields added after cells were first recorded: left out of the config's hash while at their default, so the
+    # cells and checkpoints recorded before them keep their hashes (poir_mjx/sweep/config.config_dict).
+    HASH_AT_DEFAULT_OMITS = ("scoring", "scoring_lambda", "gripper_noise", "gripper_flip_prob", "dril_units")
 
     def cross_check(self, prefix: str) -> None:
+        if self.dril_units != "normalized" and self.disagreement == "excess":
+            raise ConfigError(f"{prefix}dril_units: {self.dril_units!r} needs disagreement 'raw' (the expert "
+                              "data's level that 'excess' subtracts is measured in normalised units)")  # fmt: skip
         if self.top_k > self.num_trajectories:
             raise ConfigError(f"{prefix}top_k: {self.top_k} exceeds num_trajectories {self.num_trajectories}")
         if not 0 < self.disagreement_quantile <= 1:

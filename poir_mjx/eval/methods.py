@@ -17,7 +17,7 @@ from typing import Callable
 
 from poir_mjx.core.agent import POIR
 from poir_mjx.baselines.registry import BASELINES
-from poir_mjx.core.config import POIRConfig, offline_config
+from poir_mjx.core.config import PlannerConfig, POIRConfig, offline_config
 
 
 class UnknownMethodError(ValueError):
@@ -60,7 +60,9 @@ class Method:
         """What determines the offline weights (how the planner uses them and online settings do not): the
         checkpoint key."""
         cfg = offline_config(self.agent_config(base))
-        planner = dataclasses.replace(base.planner, reward="dril", use_prior=True, selection="top_k", disagreement="raw")
+        default = PlannerConfig()
+        how_it_plans = ("reward", "use_prior", "selection", "disagreement", *PlannerConfig.HASH_AT_DEFAULT_OMITS)
+        planner = dataclasses.replace(base.planner, **{f: getattr(default, f) for f in how_it_plans})
         return dataclasses.replace(cfg, planner=planner)
 
     def policy_fn(self, agent: POIR) -> Callable:

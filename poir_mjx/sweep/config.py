@@ -10,7 +10,7 @@ import typing
 from pathlib import Path
 from typing import Literal
 
-from poir_mjx.core.config import PRESETS, ConfigError, POIRConfig, apply_overrides, preset, to_dict
+from poir_mjx.core.config import PRESETS, ConfigError, PlannerConfig, POIRConfig, apply_overrides, preset, to_dict
 from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS, TASKS
 from poir_mjx.eval.methods import METHODS, get_method
 from poir_mjx.sweep.run_folder import RETIRED, run_name_problem, upgrade_recorded
@@ -160,6 +160,10 @@ def config_dict(cfg: POIRConfig, online: bool) -> dict:
     d = to_dict(cfg)
     if not online:
         d.pop("online")
+    default = PlannerConfig()
+    for f in PlannerConfig.HASH_AT_DEFAULT_OMITS:
+        if getattr(cfg.planner, f) == getattr(default, f):
+            d["planner"].pop(f)
     return d
 
 
