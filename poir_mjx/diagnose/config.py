@@ -35,6 +35,9 @@ class DiagnoseConfig:
     """Control steps per episode at most; 0: the run's max_steps (an episode stops at its success)."""
     oracle: bool = True
     """Roll every candidate action sequence out in robosuite from the same state (the oracle check)."""
+    holdout: float = 0.0
+    """If > 0: also train a world model (same config and seed) on all but this fraction of the demos (the last
+    ones, whole demos) and measure its one-step error on the held-out demos beside its training demos."""
     out: Path | None = None
     """Where the records and the page go; default results/diagnose/<run name>/."""
     checkpoints: Path = Path("checkpoints")
@@ -62,6 +65,8 @@ def check(cfg: DiagnoseConfig) -> None:
         raise ConfigError(f"{SOURCE}: field 'every' must be in 1..100000, got {cfg.every}")
     if not 0 <= cfg.steps <= 100_000:
         raise ConfigError(f"{SOURCE}: field 'steps' must be in 0..100000 (0: the run's max_steps), got {cfg.steps}")
+    if not (math.isfinite(cfg.holdout) and 0 <= cfg.holdout < 1):
+        raise ConfigError(f"{SOURCE}: field 'holdout' must be in [0, 1), got {cfg.holdout}")
     if not 0 <= cfg.seed < 2**32:
         raise ConfigError(f"{SOURCE}: field 'seed' must be in 0..2**32-1, got {cfg.seed}")
 

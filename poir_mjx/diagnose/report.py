@@ -53,6 +53,8 @@ def summarize(recs: list[dict], task: str) -> dict:
         "episodes": by_group(np.mean([r["episode_one_step_sq_error"] for r in recs], 0), groups, np.mean),
         **({"candidates": by_group(np.mean([c["one_step_sq_error"] for c in calls], 0), groups, np.mean)}
            if first["oracle"] else {}),
+        **{name: by_group(demo[f"holdout_{name}_error"], groups, np.mean)
+           for name in ("training", "held_out") if f"holdout_{name}_error" in demo},
     }  # fmt: skip
     return s
 
@@ -124,12 +126,13 @@ def render(task: str, summary: dict) -> str:
                   ["candidates whose gripper sign differs from EBC's", *[_pct(s["gripper_sign_differs_from_ebc"]) for s in summary.values()]],
                   ["candidates at the gripper bound (|a| >= 1)", *[_pct(s["gripper_at_bound"]) for s in summary.values()]]]),
               "", "## 4. World-model one-step error (normalised units², mean per dimension of each group)", "",
-              "Demos: the expert transitions it was trained on; episodes: the diagnosed episodes' own transitions; "
+              "Demos: the expert transitions it was trained on; training / held_out: a world model trained "
+              "on all but the held-out demos (`--holdout`), on its own training demos and on the held-out ones; episodes: the diagnosed episodes' own transitions; "
               "candidates: the first imagined step against robosuite's; expert change: the expert's own one-step "
               "change, the size of what the actions move.", ""]  # fmt: skip
     groups = list(next(iter(summary.values()))["one_step_sq_error"]["demos"])
     rows = []
-    for where in ("expert_change", "demos", "episodes", "candidates"):
+    for where in ("expert_change", "demos", "training", "held_out", "episodes", "candidates"):
         if all(where in s["one_step_sq_error"] for s in summary.values()):
             for g in groups:
                 rows.append([f"{where}: {g}", *[_f(s["one_step_sq_error"][where][g]) for s in summary.values()]])

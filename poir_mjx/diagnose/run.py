@@ -132,5 +132,32 @@ def _demo_error(cfg: DiagnoseConfig, run_cfg, agent, params) -> dict[str, list[f
     err = probe.one_step_error_fn(agent)
     rows = np.random.default_rng(0).choice(len(tr.obs), min(len(tr.obs), 4096), replace=False)
     change = (agent.normalize_obs(params, tr.next_obs[rows]) - agent.normalize_obs(params, tr.obs[rows])) ** 2
-    return {"error": np.asarray(err(params, tr.obs[rows], tr.actions[rows], tr.next_obs[rows])).tolist(),
-            "change": np.asarray(change.mean(0)).tolist()}
+    out = {"error": np.asarray(err(params, tr.obs[rows], tr.actions[rows], tr.next_obs[rows])).tolist(),
+           "change": np.asarray(change.mean(0)).tolist()}
+    if cfg.holdout > 0:
+        out.update(_holdout_error(cfg, agent, params, tr))
+    return out
+
+
+def _holdout_error(cfg: DiagnoseConfig, agent, params, tr) -> dict[str, list[float]]:
+    """A world model trained (same config, same seed) on all demos but the last `holdout` fraction, its one-step
+    error on its training demos and on the held-out ones (normalised with its own statistics)."""
+    from poir_mjx.diagnose import probe
+    from poir_mjx.envs.layout import obs_groups
+
+    n_demos = len(tr.demo_starts)
+    held = max(1, round(cfg.holdout * n_demos))
+    if held >= n_demos:
+        raise ConfigError(f"{SOURCE}: field 'holdout': {cfg.holdout} of {n_demos} demos leaves none to train on")
+    cut = int(tr.demo_starts[n_demos - held])
+    print(f"diagnose: training a world model on {n_demos - held} of {n_demos} demos (holdout {cfg.holdout:g})",
+          file=sys.stderr)  # fmt: skip
+    bc = params.bc if agent.config.bc_space == "raw" else None  # the prior is not what is measured: reuse it
+    p2, _ = agent.fit(jax.random.PRNGKey(cfg.seed), tr.obs[:cut], tr.actions[:cut], tr.next_obs[:cut],
+                      obs_groups=obs_groups(cfg.task), bc_params=bc)  # fmt: skip
+    err = probe.one_step_error_fn(agent)
+    rng = np.random.default_rng(1)
+    train = rng.choice(cut, min(cut, 4096), replace=False)
+    test = cut + rng.choice(len(tr.obs) - cut, min(len(tr.obs) - cut, 4096), replace=False)
+    return {"holdout_training_error": np.asarray(err(p2, tr.obs[train], tr.actions[train], tr.next_obs[train])).tolist(),
+            "holdout_held_out_error": np.asarray(err(p2, tr.obs[test], tr.actions[test], tr.next_obs[test])).tolist()}

@@ -56,7 +56,7 @@ def test_diagnose_writes_records_and_the_page_and_resumes(tiny_run, tmp_path, ca
     from poir_mjx.diagnose.run import run
 
     out = tmp_path / "diag"
-    cfg = DiagnoseConfig(run=tiny_run / "tiny", sigma_init=(0.3,), episodes=(1,), every=2, steps=4, out=out,
+    cfg = DiagnoseConfig(run=tiny_run / "tiny", sigma_init=(0.3,), episodes=(1,), every=2, steps=4, out=out, holdout=0.34,
                          checkpoints=tiny_run / "ckpt", progress=False)  # fmt: skip
     assert run(cfg) == 0
     path = out / "lift" / "POIR-DRIL" / "si=0.3_seed=0" / "episode=1.json"
@@ -69,8 +69,9 @@ def test_diagnose_writes_records_and_the_page_and_resumes(tiny_run, tmp_path, ca
     assert len(call["shares"]["l2"]) == 19 and len(call["shares"]["dril"]) == 7
     assert sum(call["shares"]["dril"]) == pytest.approx(1.0)
     assert len(call["one_step_sq_error"]) == 19 and len(rec["demos"]["error"]) == 19
+    assert len(rec["demos"]["holdout_held_out_error"]) == 19  # a world model trained on 2 of the 3 demos
     page = (out / "lift.md").read_text()
-    assert "POIR-DRIL si=0.3_seed=0" in page and "Spearman" in page and "eef_quat" in page
+    assert "POIR-DRIL si=0.3_seed=0" in page and "Spearman" in page and "eef_quat" in page and "held_out: cube_pos" in page
     assert (out / "lift-shares.png").stat().st_size > 1000
     before = path.stat().st_mtime_ns
     assert run(cfg) == 0  # the finished episode is reused, the page rewritten
@@ -80,7 +81,7 @@ def test_diagnose_writes_records_and_the_page_and_resumes(tiny_run, tmp_path, ca
 @pytest.mark.parametrize("field, value, match", [
     ("method", "EBC", "field 'method': 'EBC' is not an offline planner method"),
     ("sigma_init", (), "field 'sigma_init'"), ("episodes", (1, 1), "field 'episodes'"), ("every", 0, "field 'every'"),
-    ("seed", -1, "field 'seed'"), ("task", "stack", "field 'task'")])  # fmt: skip
+    ("seed", -1, "field 'seed'"), ("task", "stack", "field 'task'"), ("holdout", 1.0, "field 'holdout'")])  # fmt: skip
 def test_bad_fields_name_the_field(field, value, match):
     with pytest.raises(ConfigError, match=match):
         check(dataclasses.replace(DiagnoseConfig(run=Path("results/x")), **{field: value}))
