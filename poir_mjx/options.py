@@ -42,6 +42,11 @@ class Sweep:
     poir: Annotated[POIRFlags, tyro.conf.arg(name="", prefix_name=False)] = POIRFlags()  # type: ignore[valid-type]
     """POIR config fields, added to the file's "overrides" (a flag wins over the file)."""
 
+    def outputs(self):
+        """What the command writes, checked before any work (poir_mjx/outputs.py; the run folder: run_sweep)."""
+        return [(self.results, "folder", "--results"), (self.data, "folder", "--data"),
+                (self.checkpoints, "folder", "--checkpoints")]
+
 
 @dataclasses.dataclass(frozen=True)
 class Eval:
@@ -73,6 +78,9 @@ class Eval:
     planner: PlannerFlags = PlannerFlags()  # type: ignore[valid-type]
     """Planner settings replacing the checkpoint's (POIR methods only)."""
 
+    def outputs(self):
+        return [] if self.out is None else [(self.out, "file", "--out")]
+
 
 @dataclasses.dataclass(frozen=True)
 class Compare:
@@ -82,6 +90,9 @@ class Compare:
     """Run folders (results/<name>)."""
     out: Optional[Path] = None
     """Also write the table to this file (markdown)."""
+
+    def outputs(self):
+        return [] if self.out is None else [(self.out, "file", "--out")]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -98,6 +109,11 @@ class Report:
     """First rewrite each published run's tables and plots from its cell records with this version's report code
     (nothing is simulated; a run published without its cells is left as it is)."""
 
+    def outputs(self):
+        if self.check:
+            return []
+        return [(self.out, "file", "--out") if self.out else (self.results / "README.md", "file", "--results")]
+
 
 @dataclasses.dataclass(frozen=True)
 class Envs:
@@ -109,6 +125,9 @@ class Envs:
     """Task to export, repeatable (default: all)."""
     check: bool = False
     """Only export the tasks whose files are missing."""
+
+    def outputs(self):
+        return [(self.out, "folder", "--out")]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -131,6 +150,9 @@ class DemosGenerate:
     """MJX episodes per compiled batch (GPU: 256-1024)."""
     x64: bool = False
     """Record MJX demos with float64 physics (jax_enable_x64): NutAssemblySquare's grasp needs it (see demos success)."""
+
+    def outputs(self):
+        return [(self.out, "folder", "--out")]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -156,6 +178,10 @@ class DemosSuccess:
     """Run the MJX physics in float64 (jax_enable_x64). NutAssemblySquare's grasp needs it in MJX: the expert succeeds
     in 20 of 32 float32 episodes, 32 of 32 in float64 (docs/expert-data.md)."""
 
+    def outputs(self):
+        tag = "_".join(self.simulator)
+        return [(self.out, "folder", "--out"), *_files(self.out, f"success_{tag}", "--out")]
+
 
 @dataclasses.dataclass(frozen=True)
 class BenchEnv:
@@ -176,6 +202,9 @@ class BenchEnv:
     name: str = "env"
     """Output file name without extension."""
 
+    def outputs(self):
+        return [(self.out, "folder", "--out"), (self.name, "name", "--name"), *_files(self.out, self.name, "--name")]
+
 
 @dataclasses.dataclass(frozen=True)
 class BenchPlanner:
@@ -195,6 +224,9 @@ class BenchPlanner:
     """Timed calls per row."""
     expert_states: int = 30000
     """Expert states the L2 reward searches."""
+
+    def outputs(self):
+        return [(self.out, "folder", "--out"), *_files(self.out, "planner", "--out")]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -218,6 +250,9 @@ class BenchE2E:
     demo_batch: int = 0
     """MJX demo episodes per compiled batch (0: 256 on an accelerator, 16 on a CPU)."""
 
+    def outputs(self):
+        return [(self.out, "folder", "--out"), *_files(self.out, "e2e", "--out")]
+
 
 @dataclasses.dataclass(frozen=True)
 class BenchRobosuite:
@@ -239,6 +274,9 @@ class BenchRobosuite:
     sigma_init: float = 0.3
     """Initial arm-joint noise (high enough that episodes run long)."""
 
+    def outputs(self):
+        return [(self.out, "folder", "--out"), *_files(self.out, "robosuite-e2e", "--out")]
+
 
 @dataclasses.dataclass(frozen=True)
 class GpuCheck:
@@ -255,3 +293,13 @@ class GpuCheck:
     """Stages to run (always in priority order)."""
     only: Optional[Literal["env", "planner", "e2e", "sweep", "expert"]] = None
     """Run this one stage here and now, no deadline (what the runner's child processes do)."""
+
+    def outputs(self):
+        return [(self.out, "folder", "--out"), (self.scratch, "folder", "--scratch")]
+
+
+def _files(folder: Path, stem: str, flag: str) -> list:
+    """<folder>/<stem>.json and .md as outputs (a stem that is not a plain name is refused first, by its flag)."""
+    from poir_mjx.outputs import name_problem
+
+    return [] if name_problem(stem) else [(Path(folder) / f"{stem}{ext}", "file", flag) for ext in (".json", ".md")]

@@ -74,6 +74,9 @@ def main(argv=None) -> int:
     from poir_mjx.optional import MissingDependencyError
 
     try:
+        from poir_mjx.outputs import check_options
+
+        check_options(opts)  # every path the command writes, before any work
         if command.name not in ("compare", "report", "envs"):  # every command that computes: full float32 on a GPU
             from poir_mjx.devices import pin_precision
 

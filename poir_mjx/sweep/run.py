@@ -36,7 +36,9 @@ import jax
 from poir_mjx.compat import x64_enabled
 from poir_mjx.envs.tasks import float32_square_note
 from poir_mjx.sweep import run_folder
-from poir_mjx.sweep.artifacts import demos_for, train_or_load
+from poir_mjx.folder_lock import locked
+from poir_mjx.outputs import check_run_folder
+from poir_mjx.sweep.artifacts import cell_path, demos_for, train_or_load
 from poir_mjx.sweep.cells import CellBatch, run_baseline_cells, run_offline_cells, run_online_cells
 from poir_mjx.eval.methods import get_method
 from poir_mjx.sweep.report import write_tables
@@ -51,9 +53,25 @@ __all__ = ["SweepConfig", "load_sweep_config", "run_sweep"]
 
 def run_sweep(cfg: SweepConfig, results_root: Path = Path("results"), data_dir: Path = Path("data/demos"),
               ckpt_dir: Path = Path("checkpoints"), progress: bool = True, replace_config: bool = False) -> Path:  # fmt: skip
+    out = results_root / check_run_name(cfg.name, "sweep config")
+    check_run_folder(out, run_files(cfg, out), "sweep's run folder")  # not published, no link out, no dir as a file
+    with locked(out):  # one process per run folder (a second one: one line, exit status 2)
+        return _run(cfg, out, data_dir, ckpt_dir, progress, replace_config)
+
+
+def run_files(cfg: SweepConfig, out: Path) -> list[Path]:
+    """Every file the sweep writes in its run folder (its cell records, tables and plots)."""
+    files = [out / "config.json", out / "summary.md"]
+    for task in cfg.tasks:
+        files += [out / f"{task}{ext}" for ext in (".md", ".csv", ".png", "-online.png", "-baselines.png")]
+        files += [cell_path(out, task, m, si, sa, seed) for m in cfg.methods for si in cfg.sigma_init
+                  for sa in cfg.sigma_action for seed in cfg.seeds]  # fmt: skip
+    return files
+
+
+def _run(cfg: SweepConfig, out: Path, data_dir: Path, ckpt_dir: Path, progress: bool, replace_config: bool) -> Path:
     from tqdm import tqdm
 
-    out = results_root / check_run_name(cfg.name, "sweep config")
     run_folder.prepare(out, dataclasses.asdict(cfg), replace_config,
                        defaults=dataclasses.asdict(SweepConfig(name=cfg.name)))  # before any work: writable, one config
     for task in cfg.tasks:  # every folder the run will write, before any work

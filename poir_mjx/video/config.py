@@ -52,6 +52,12 @@ class VideoConfig:
     data: Path = Path("data/demos")
     """Where the sweep's demos are (read only if a checkpoint has to be trained again)."""
 
+    def outputs(self):
+        """The MP4 (poir_mjx/outputs.py checks it before any work); demos or a checkpoint made again go to
+        --data and --checkpoints."""
+        return [(self.out if self.out is not None else default_out(self), "file", "--out"),
+                (self.checkpoints, "folder", "--checkpoints"), (self.data, "folder", "--data")]
+
 
 def check(cfg: VideoConfig) -> None:
     """Reject bad fields with one line naming the field (values that need the run are checked against it later)."""
