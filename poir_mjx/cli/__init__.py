@@ -64,6 +64,7 @@ def main(argv=None) -> int:
             print(f"error: {e}", file=sys.stderr)
             return 2
 
+    from poir_mjx.core.agent import TrainingDivergedError
     from poir_mjx.core.checkpoint import CheckpointError
     from poir_mjx.core.config import ConfigError
     from poir_mjx.data.robomimic import DatasetError
@@ -83,7 +84,7 @@ def main(argv=None) -> int:
             pin_precision()
         rc = command.function()(opts)
     except (ConfigError, CheckpointError, DatasetError, ModelFileError, UnknownTaskError, UnknownMethodError,
-            MissingDependencyError, DeviceError) as e:  # fmt: skip
+            MissingDependencyError, DeviceError, TrainingDivergedError) as e:  # fmt: skip
         print(f"error: {e}", file=sys.stderr)
         return 2
     return rc if type(rc) is int else 0
