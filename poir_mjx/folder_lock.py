@@ -17,8 +17,10 @@ LOCK_NAME = ".lock"
 @contextlib.contextmanager
 def locked(folder, what: str = "run folder"):
     """Hold `folder`'s lock (made with the folder if need be) for the block; a ConfigError naming the folder and the
-    holder's pid if another process holds it."""
+    holder's pid if another process holds it. A folder this call made is removed again if the block fails having
+    written nothing there."""
     folder = Path(folder)
+    made = [p for p in (folder, *folder.parents) if not p.exists()]  # what this call makes (removed if left empty)
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / LOCK_NAME
     try:
@@ -35,5 +37,11 @@ def locked(folder, what: str = "run folder"):
         os.ftruncate(fd, 0)
         os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
         yield
+        made = []  # the command ran to its end: its folder stays
     finally:
+        if made and [p.name for p in folder.iterdir()] == [LOCK_NAME]:  # refused before writing: leave no trace
+            path.unlink()
+            for p in made:
+                with contextlib.suppress(OSError):
+                    p.rmdir()
         os.close(fd)  # releases the lock

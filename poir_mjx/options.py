@@ -14,6 +14,7 @@ import tyro
 from poir_mjx.flags import flags_type
 from poir_mjx.core.config import PRESETS, REWARDS, PlannerConfig, POIRConfig
 from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS, TASKS
+from poir_mjx.typed_config import NOISE, SEED
 
 Task = Literal[TASKS]  # type: ignore[valid-type]
 Preset = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
@@ -51,6 +52,10 @@ class Sweep:
 @dataclasses.dataclass(frozen=True)
 class Eval:
     """Evaluate one checkpoint on a noise grid and print the table (make eval CKPT=..., make xsim CKPT=...)."""
+
+    ZERO_OK = ("seed",)
+    BOUNDS = {"seed": SEED, "episodes": (1, 10**6), "max_steps": (1, 10**6), "workers": (1, 1024),
+              "sigma_init": NOISE, "sigma_action": NOISE}
 
     ckpt: Path
     """Checkpoint file (checkpoints/<task>/*.ckpt, made by a sweep)."""
@@ -119,6 +124,8 @@ class Report:
 class Envs:
     """Export the robosuite tasks to MJX-ready MJCF under envs/ (make envs; needs robosuite)."""
 
+    EMPTY_OK = ("task",)
+
     out: Path = Path("envs")
     """Output folder."""
     task: Annotated[tuple[Task, ...], tyro.conf.UseAppendAction] = ()  # type: ignore[valid-type]
@@ -133,6 +140,9 @@ class Envs:
 @dataclasses.dataclass(frozen=True)
 class DemosGenerate:
     """Write robomimic HDF5 files of successful scripted-expert demos (make demos)."""
+
+    ZERO_OK = ("seed",)
+    BOUNDS = {"seed": SEED, "num": (1, 10**6), "batch": (1, 2**16), "sigma_init": NOISE}
 
     tasks: tuple[Task, ...] = TASKS  # type: ignore[valid-type]
     """Tasks to record."""
@@ -158,6 +168,9 @@ class DemosGenerate:
 @dataclasses.dataclass(frozen=True)
 class DemosSuccess:
     """Measure the scripted expert's success rate and write a table (make expert-success)."""
+
+    ZERO_OK = ("seed", "batch")
+    BOUNDS = {"seed": SEED, "episodes": (1, 10**6), "batch": (0, 2**16), "sigma_init": NOISE}
 
     tasks: tuple[Task, ...] = TASKS  # type: ignore[valid-type]
     """Tasks to measure."""
@@ -187,6 +200,8 @@ class DemosSuccess:
 class BenchEnv:
     """MJX vs robosuite control-step throughput (make bench-env) -> <out>/<name>.{json,md}."""
 
+    BOUNDS = {"batch_sizes": (1, 2**20), "steps": (1, 10**6), "robosuite_steps": (1, 10**7)}
+
     out: Path = Path("results/bench")
     """Output folder."""
     tasks: tuple[Task, ...] = TASKS  # type: ignore[valid-type]
@@ -210,6 +225,8 @@ class BenchEnv:
 class BenchPlanner:
     """POIR planner calls per second (make bench-planner) -> <out>/planner.{json,md}."""
 
+    BOUNDS = {"batch_sizes": (1, 2**20), "calls": (1, 10**6), "expert_states": (1, 10**7)}
+
     out: Path = Path("results/bench")
     """Output folder."""
     presets: tuple[Preset, ...] = ("cpu-small", "paper")  # type: ignore[valid-type]
@@ -232,6 +249,9 @@ class BenchPlanner:
 @dataclasses.dataclass(frozen=True)
 class BenchE2E:
     """Evaluated episodes per minute on Lift, per preset and method (make bench-e2e) -> <out>/e2e.{json,md}."""
+
+    ZERO_OK = ("demo_batch",)
+    BOUNDS = {"episodes": (1, 2**20), "steps": (1, 10**6), "num_demos": (1, 10**6), "demo_batch": (0, 2**16)}
 
     out: Path = Path("results/bench")
     """Output folder."""
@@ -258,6 +278,9 @@ class BenchE2E:
 class BenchRobosuite:
     """Episodes in robosuite: bare stepping vs EBC and POIR-DRIL collection, plain and overlapped
     (make bench-robosuite) -> <out>/robosuite-e2e.{json,md}, each row written as it finishes."""
+
+    ZERO_OK = ("workers",)
+    BOUNDS = {"episodes": (1, 2**20), "steps": (1, 10**6), "workers": (0, 1024), "sigma_init": NOISE}
 
     out: Path = Path("results/bench")
     """Output folder."""

@@ -46,6 +46,18 @@ GROUPS = {
 PROG = "poir-mjx"
 
 
+def check_flags(opts) -> None:
+    """The options' values checked as every typed config is (``typed_config.check``: types, signs, bounds), each
+    error naming the flag."""
+    from poir_mjx.typed_config import ConfigError, check
+
+    try:
+        check(opts)
+    except ConfigError as e:
+        field, _, problem = str(e).partition(": ")
+        raise ConfigError(f"--{field.replace('_', '-')}: {problem}") from None
+
+
 def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     set_command_line(argv)
@@ -77,6 +89,7 @@ def main(argv=None) -> int:
     try:
         from poir_mjx.outputs import check_options
 
+        check_flags(opts)  # every value in its bounds (the one validation of typed configs), before any work
         check_options(opts)  # every path the command writes, before any work
         if command.name not in ("compare", "report", "envs"):  # every command that computes: full float32 on a GPU
             from poir_mjx.devices import pin_precision

@@ -33,11 +33,12 @@ from pathlib import Path
 
 import jax
 
+from poir_mjx.atomic import atomic_write_text
 from poir_mjx.compat import x64_enabled
 from poir_mjx.envs.tasks import float32_square_note
 from poir_mjx.sweep import run_folder
 from poir_mjx.folder_lock import locked
-from poir_mjx.outputs import check_run_folder
+from poir_mjx.outputs import check_folder, check_run_folder
 from poir_mjx.sweep.artifacts import cell_path, demos_for, train_or_load
 from poir_mjx.sweep.cells import CellBatch, run_baseline_cells, run_offline_cells, run_online_cells
 from poir_mjx.eval.methods import get_method
@@ -72,12 +73,17 @@ def run_files(cfg: SweepConfig, out: Path) -> list[Path]:
 def _run(cfg: SweepConfig, out: Path, data_dir: Path, ckpt_dir: Path, progress: bool, replace_config: bool) -> Path:
     from tqdm import tqdm
 
-    run_folder.prepare(out, dataclasses.asdict(cfg), replace_config,
-                       defaults=dataclasses.asdict(SweepConfig(name=cfg.name)))  # before any work: writable, one config
-    for task in cfg.tasks:  # every folder the run will write, before any work
+    config_text = run_folder.check_config(out, dataclasses.asdict(cfg), replace_config,
+                                          defaults=dataclasses.asdict(SweepConfig(name=cfg.name)))  # fmt: skip
+
+    def record_config() -> None:  # once the run has trained or reused an agent: a refused run leaves no config.json
+        if not (out / "config.json").is_file() or (out / "config.json").read_text() != config_text:
+            atomic_write_text(out / "config.json", config_text)
+
+    for task in cfg.tasks:  # every folder the run will write, before any work (nothing made yet)
         for mname in cfg.methods:
-            run_folder.check_writable(out / "cells" / task / mname, "cell folder")
-        run_folder.check_writable(Path(ckpt_dir) / task, "checkpoints folder")
+            check_folder(out / "cells" / task / mname, "cell folder")
+        check_folder(Path(ckpt_dir) / task, "checkpoints folder")
     if progress:  # once, what runs (the known import-time warnings are silenced: poir_mjx/quiet.py)
         print(f"sweep {cfg.name}: evaluation in {simulator_line(cfg.simulator)}; {stack_line()}; {machine_line()}",
               file=sys.stderr, flush=True)  # fmt: skip
@@ -114,10 +120,12 @@ def _run(cfg: SweepConfig, out: Path, data_dir: Path, ckpt_dir: Path, progress: 
         batch = CellBatch(cfg, task, mname, seed, grid, paths, episode_keys(seed, len(grid) * cfg.episodes), chash,
                           common)  # fmt: skip
         if method.is_baseline:
+            record_config()
             run_baseline_cells(batch, tr, ckpt_dir, progress, bar.update)
             write_tables(plan)  # the finished cells are readable while a long sweep runs
             continue
         agent, params, ckpt = train_or_load(method, cfg, task, seed, tr, prov, ckpt_dir, progress)
+        record_config()
         batch = dataclasses.replace(batch, common={**common, "checkpoint": str(ckpt)})
         if method.online:
             run_online_cells(batch, agent, params, (tr.obs, tr.actions, tr.next_obs), ckpt_dir, progress, bar.update)
@@ -125,5 +133,6 @@ def _run(cfg: SweepConfig, out: Path, data_dir: Path, ckpt_dir: Path, progress: 
             continue
         run_offline_cells(batch, method, agent, params, progress, evaluated)
     bar.close()
+    record_config()
     write_tables(plan)
     return out

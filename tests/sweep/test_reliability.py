@@ -181,7 +181,7 @@ def test_a_cell_record_with_bad_counts_is_one_clear_error(tmp_path, fields, matc
 def test_demos_generate_checks_its_flags_first(tmp_path, capsys):
     f = tmp_path / "file"
     f.write_text("x")
-    for args, msg in ((["--sigma-init", "-1"], "--sigma-init: must be finite and >= 0"),
+    for args, msg in ((["--sigma-init", "-1"], "--sigma-init: must be >= 0"),
                       (["--out", str(f)], "is a file, expected a folder")):  # fmt: skip
         assert cli.main(["demos", "generate", "--tasks", "lift", *args]) == 2
         err = capsys.readouterr().err
