@@ -187,7 +187,11 @@ def snapshot(root) -> dict:
 
 
 def one_line_error(capsys) -> str:
-    """The command's stderr, asserted to be one line starting 'error: '; returned without the prefix."""
+    """The command's error, asserted to be one line starting 'error: ', the last on stderr (a sweep says what runs
+    first, on one line of its own) with no traceback; returned without the prefix."""
     err = capsys.readouterr().err
-    assert err.startswith("error: ") and err.count("\n") == 1, err
-    return err[len("error: "):].rstrip("\n")
+    lines = err.rstrip("\n").split("\n")
+    assert err.endswith("\n") and "Traceback" not in err and len(lines) <= 2, err
+    assert lines[-1].startswith("error: ") and not any(ln.startswith("error: ") for ln in lines[:-1]), err
+    assert len(lines) == 1 or lines[0].startswith("sweep "), err
+    return lines[-1][len("error: "):]

@@ -246,11 +246,11 @@ def _read(path, demo_name, group, key, ndim, field=None) -> np.ndarray:
         raise _err(path, demo_name, field, "missing dataset")
     try:
         node = group[key]
-        if not isinstance(node, h5py.Dataset):
-            raise _err(path, demo_name, field, "is a group, expected a dataset")
-        arr = node[()]
+        arr = node[()] if isinstance(node, h5py.Dataset) else None
     except (KeyError, OSError, ValueError, TypeError) as e:  # a dangling (external) link, an unreadable dataset
         raise _err(path, demo_name, field, f"cannot be read ({' '.join(str(e).split())})") from None
+    if arr is None:
+        raise _err(path, demo_name, field, "is a group, expected a dataset")
     if np.ndim(arr) != ndim:
         raise _err(path, demo_name, field, f"expected {ndim} dimensions, got shape {np.shape(arr)}")
     if not (np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)):

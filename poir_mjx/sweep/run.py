@@ -45,7 +45,8 @@ from poir_mjx.eval.methods import get_method
 from poir_mjx.sweep.report import write_tables
 from poir_mjx.rollout.evaluator import episode_keys
 from poir_mjx.sweep.run_folder import check_run_name
-from poir_mjx.sweep.config import SweepConfig, load_sweep_config
+from poir_mjx.core.config import ConfigError
+from poir_mjx.sweep.config import SweepConfig, base_config, load_sweep_config
 from poir_mjx.sweep.plan import SweepPlan
 from poir_mjx.versions import machine_line, simulator_line, stack, stack_line
 
@@ -92,6 +93,12 @@ def _run(cfg: SweepConfig, out: Path, data_dir: Path, ckpt_dir: Path, progress: 
         if note:
             print(note, file=sys.stderr, flush=True)
     demos = {task: demos_for(cfg, task, data_dir, progress) for task in cfg.tasks}  # (transitions, provenance)
+    for task, (tr, _) in demos.items():  # before any training: enough demos for every method's batch
+        for mname in (m for m in cfg.methods if not get_method(m).is_baseline):
+            batch_size = get_method(mname).training_config(base_config(cfg)).train.batch_size
+            if tr.num_transitions < batch_size:
+                raise ConfigError(f"{tr.path}: {tr.num_transitions} expert transitions, fewer than {mname}'s "
+                                  f"train.batch_size {batch_size}")  # fmt: skip
     plan = SweepPlan.build(cfg, out, {task: prov["sha256"] for task, (_, prov) in demos.items()})
     grid = plan.grid
     bar = tqdm(total=len(plan.runs()) * len(grid) * cfg.episodes, desc=f"sweep {cfg.name}", unit="ep",
