@@ -223,6 +223,7 @@ PROBES = [
     ("demos-success-episodes-zero", ["demos", "success", "--episodes", "0"], None, "--episodes: must be positive"),
     ("bench-batch-zero", ["bench", "env", "--batch-sizes", "0"], None, "--batch-sizes: must be positive"),
     ("bench-planner-calls-negative", ["bench", "planner", "--calls", "-1"], None, "--calls: must be"),
+    ("gpu-check-only-without-gpu", ["gpu-check", "--only", "env", "--out", "gpu"], None, "a GPU was requested"),
     # 7. checkpoints verified when read, and the advice fits the file
     ("eval-ckpt-cell-record", ["eval", "--ckpt", "record.json"], None, "record.json: not a poir-mjx checkpoint"),
     ("eval-ckpt-old-format", ["eval", "--ckpt", "old.ckpt"], None, "old.ckpt: written before checkpoints carried"),
@@ -269,4 +270,20 @@ def test_fewer_demos_than_the_batch_stops_before_training(root, monkeypatch, cap
     before = snapshot(root)
     assert cli.main(["sweep", "--config", _config(root, "few", demo_sweep("few-samples")(root))]) == 2
     assert "few-samples.hdf5: 9 expert transitions, fewer than EBC's train.batch_size 256" in one_line_error(capsys)
+    assert snapshot(root) == before
+
+
+def test_a_full_disk_is_one_line(root, monkeypatch, capsys):
+    import errno
+
+    from poir_mjx.sweep import index
+
+    def full(path, text):
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.chdir(root)
+    monkeypatch.setattr(index, "atomic_write_text", full)
+    before = snapshot(root)
+    assert cli.main(["report", "--out", "page.md"]) == 2
+    assert one_line_error(capsys).startswith("page.md: No space left on device")
     assert snapshot(root) == before

@@ -14,6 +14,7 @@ subcommand lists its flags). Bad input: one line on stderr naming the file or th
 
 from __future__ import annotations
 
+import errno
 import sys
 
 from poir_mjx import options as o
@@ -44,6 +45,8 @@ GROUPS = {
     "bench": ("Throughput benchmarks (make bench-env, bench-planner, bench-e2e, bench-robosuite).", None),
 }
 PROG = "poir-mjx"
+# OSErrors reported as one line (exit status 2) rather than a traceback: no space, no quota, read-only, forbidden.
+ENVIRONMENT_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM}
 
 
 def check_flags(opts) -> None:
@@ -99,5 +102,11 @@ def main(argv=None) -> int:
     except (ConfigError, CheckpointError, DatasetError, ModelFileError, UnknownTaskError, UnknownMethodError,
             MissingDependencyError, DeviceError, TrainingDivergedError) as e:  # fmt: skip
         print(f"error: {e}", file=sys.stderr)
+        return 2
+    except OSError as e:  # the machine's, not the input's: a full disk, a read-only or forbidden folder
+        if e.errno not in ENVIRONMENT_ERRNOS:
+            raise
+        print(f"error: {e.filename or 'a write'}: {e.strerror} (files are written atomically: none was left "
+              "half-written)", file=sys.stderr)  # fmt: skip
         return 2
     return rc if type(rc) is int else 0
