@@ -12,13 +12,12 @@ from typing import Annotated, Literal, Optional
 import tyro
 
 from poir_mjx.flags import flags_type
-from poir_mjx.core.config import PRESETS, REWARDS, PlannerConfig, POIRConfig
+from poir_mjx.core.config import PlannerConfig, POIRConfig
 from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS, TASKS
+from poir_mjx.outputs import file_pair
 from poir_mjx.typed_config import NOISE, SEED
 
 Task = Literal[TASKS]  # type: ignore[valid-type]
-Preset = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
-Reward = Literal[REWARDS]  # type: ignore[valid-type]
 
 # Every POIR config field as a flag (--ensemble-size, --planner.sigma, --normalizer.clip, --online.num-envs, ...).
 POIRFlags = flags_type(POIRConfig, "(default: the config file's)")
@@ -193,112 +192,7 @@ class DemosSuccess:
 
     def outputs(self):
         tag = "_".join(self.simulator)
-        return [(self.out, "folder", "--out"), *_files(self.out, f"success_{tag}", "--out")]
-
-
-@dataclasses.dataclass(frozen=True)
-class BenchEnv:
-    """MJX vs robosuite control-step throughput (make bench-env) -> <out>/<name>.{json,md}."""
-
-    BOUNDS = {"batch_sizes": (1, 2**20), "steps": (1, 10**6), "robosuite_steps": (1, 10**7)}
-
-    out: Path = Path("results/bench")
-    """Output folder."""
-    tasks: tuple[Task, ...] = TASKS  # type: ignore[valid-type]
-    """Tasks to time."""
-    batch_sizes: tuple[int, ...] = (1, 16, 64, 256)
-    """MJX batch sizes."""
-    contact_rich_batch_sizes: Optional[tuple[int, ...]] = None
-    """Batch sizes for PickPlaceCan and NutAssemblySquare (default: --batch-sizes)."""
-    steps: int = 5
-    """Timed MJX control steps per batch size."""
-    robosuite_steps: int = 100
-    """Timed robosuite control steps (where robosuite is installed)."""
-    name: str = "env"
-    """Output file name without extension."""
-
-    def outputs(self):
-        return [(self.out, "folder", "--out"), (self.name, "name", "--name"), *_files(self.out, self.name, "--name")]
-
-
-@dataclasses.dataclass(frozen=True)
-class BenchPlanner:
-    """POIR planner calls per second (make bench-planner) -> <out>/planner.{json,md}."""
-
-    BOUNDS = {"batch_sizes": (1, 2**20), "calls": (1, 10**6), "expert_states": (1, 10**7)}
-
-    out: Path = Path("results/bench")
-    """Output folder."""
-    presets: tuple[Preset, ...] = ("cpu-small", "paper")  # type: ignore[valid-type]
-    """Presets to time."""
-    rewards: tuple[Reward, ...] = REWARDS  # type: ignore[valid-type]
-    """Imitation rewards to time."""
-    batch_sizes: tuple[int, ...] = (1, 16)
-    """Episodes per planner call."""
-    paper_batch_sizes: Optional[tuple[int, ...]] = None
-    """Batch sizes for the paper preset (default: --batch-sizes)."""
-    calls: int = 5
-    """Timed calls per row."""
-    expert_states: int = 30000
-    """Expert states the L2 reward searches."""
-
-    def outputs(self):
-        return [(self.out, "folder", "--out"), *_files(self.out, "planner", "--out")]
-
-
-@dataclasses.dataclass(frozen=True)
-class BenchE2E:
-    """Evaluated episodes per minute on Lift, per preset and method (make bench-e2e) -> <out>/e2e.{json,md}."""
-
-    ZERO_OK = ("demo_batch",)
-    BOUNDS = {"episodes": (1, 2**20), "steps": (1, 10**6), "num_demos": (1, 10**6), "demo_batch": (0, 2**16)}
-
-    out: Path = Path("results/bench")
-    """Output folder."""
-    presets: tuple[Preset, ...] = ("cpu-small",)  # type: ignore[valid-type]
-    """Presets to time."""
-    methods: tuple[str, ...] = ("EBC", "POIR-DRIL")
-    """Methods from the registry."""
-    episodes: int = 16
-    """Episodes per batch."""
-    steps: int = 100
-    """Control steps per episode."""
-    num_demos: int = DEFAULT_NUM_DEMOS
-    """Scripted-expert demonstrations to train on."""
-    demo_simulator: Literal["auto", "robosuite", "mjx"] = "auto"
-    """Where the demos are recorded: "auto" (robosuite where installed, else MJX), "robosuite" or "mjx"."""
-    demo_batch: int = 0
-    """MJX demo episodes per compiled batch (0: 256 on an accelerator, 16 on a CPU)."""
-
-    def outputs(self):
-        return [(self.out, "folder", "--out"), *_files(self.out, "e2e", "--out")]
-
-
-@dataclasses.dataclass(frozen=True)
-class BenchRobosuite:
-    """Episodes in robosuite: bare stepping vs EBC and POIR-DRIL collection, plain and overlapped
-    (make bench-robosuite) -> <out>/robosuite-e2e.{json,md}, each row written as it finishes."""
-
-    ZERO_OK = ("workers",)
-    BOUNDS = {"episodes": (1, 2**20), "steps": (1, 10**6), "workers": (0, 1024), "sigma_init": NOISE}
-
-    out: Path = Path("results/bench")
-    """Output folder."""
-    task: Task = "lift"  # type: ignore[valid-type]
-    """Task to step."""
-    methods: tuple[str, ...] = ("EBC", "POIR-DRIL")
-    """Methods from the registry (their cpu-small agents, trained on first use from the scripted demos)."""
-    episodes: int = 16
-    """Episodes per timed batch."""
-    steps: int = 200
-    """Control steps per episode (episodes that succeed stop earlier: the rate counts steps taken)."""
-    workers: int = 0
-    """robosuite worker processes (0: one per CPU core)."""
-    sigma_init: float = 0.3
-    """Initial arm-joint noise (high enough that episodes run long)."""
-
-    def outputs(self):
-        return [(self.out, "folder", "--out"), *_files(self.out, "robosuite-e2e", "--out")]
+        return [(self.out, "folder", "--out"), *file_pair(self.out, f"success_{tag}", "--out")]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -319,10 +213,3 @@ class GpuCheck:
 
     def outputs(self):
         return [(self.out, "folder", "--out"), (self.scratch, "folder", "--scratch")]
-
-
-def _files(folder: Path, stem: str, flag: str) -> list:
-    """<folder>/<stem>.json and .md as outputs (a stem that is not a plain name is refused first, by its flag)."""
-    from poir_mjx.outputs import name_problem
-
-    return [] if name_problem(stem) else [(Path(folder) / f"{stem}{ext}", "file", flag) for ext in (".json", ".md")]

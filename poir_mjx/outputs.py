@@ -172,3 +172,8 @@ def check_options(opts) -> None:
     before the command runs."""
     for value, kind, flag in opts.outputs():
         {"file": check_file, "folder": check_folder, "name": check_name}[kind](value, flag)
+
+
+def file_pair(folder, stem: str, flag: str) -> list:
+    """<folder>/<stem>.json and .md as outputs (a stem that is not a plain name is refused first, by its flag)."""
+    return [] if name_problem(stem) else [(Path(folder) / f"{stem}{ext}", "file", flag) for ext in (".json", ".md")]
