@@ -147,3 +147,14 @@ def test_a_lock_left_by_a_killed_process_is_recovered(tmp_path):
     assert (tmp_path / "run" / ".lock").is_file()  # the dead process's lock file is still there
     with locked(tmp_path / "run"):
         pass
+
+
+def test_a_rerun_of_a_published_run_on_other_demos_says_so_in_one_line(tmp_path):
+    from poir_mjx.sweep.run_folder import demo_note
+
+    root = project(tmp_path, cells={"config_hash": "x", "episodes": 10, "successes": 4, "data": {"sha256": "a711ae91"}})
+    local = root / "results" / "local" / PUBLISHED
+    note = demo_note(PUBLISHED, local, {"lift": "6e78b1ec"}, root / "results")
+    assert note.count("\n") == 0 and "lift 6e78b1ec here, a711ae91 there" in note and "sampling error" in note
+    assert demo_note(PUBLISHED, local, {"lift": "a711ae91"}, root / "results") is None  # the same data
+    assert demo_note("other", local, {"lift": "6e78b1ec"}, root / "results") is None  # no published run of the name

@@ -100,6 +100,9 @@ def _run(cfg: SweepConfig, out: Path, data_dir: Path, ckpt_dir: Path, progress: 
                 raise ConfigError(f"{tr.path}: {tr.num_transitions} expert transitions, fewer than {mname}'s "
                                   f"train.batch_size {batch_size}")  # fmt: skip
     plan = SweepPlan.build(cfg, out, {task: prov["sha256"] for task, (_, prov) in demos.items()})
+    note = run_folder.demo_note(cfg.name, out, plan.digests)
+    if note and progress:
+        print(note, file=sys.stderr, flush=True)
     grid = plan.grid
     bar = tqdm(total=len(plan.runs()) * len(grid) * cfg.episodes, desc=f"sweep {cfg.name}", unit="ep",
                disable=not progress)  # fmt: skip

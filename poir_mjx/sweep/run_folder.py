@@ -100,3 +100,35 @@ def check_config(out: Path, config: dict, replace_config: bool = False, defaults
             raise ConfigError(f"{recorded}: this run folder was made with a different config (fields {diff}); "
                               "use another name, or --replace-config to recompute the changed cells here")  # fmt: skip
     return text
+
+
+def published_digests(run: Path) -> dict[str, str]:
+    """{task: the expert data's digest} its cell records name, of a run folder (empty when it has none)."""
+    out = {}
+    for f in sorted(Path(run).glob("cells/*/*/*.json")):
+        try:
+            rec = json.loads(f.read_text())
+        except (OSError, ValueError):
+            continue
+        sha = rec.get("data", {}).get("sha256") if isinstance(rec, dict) and isinstance(rec.get("data"), dict) else None
+        if isinstance(sha, str):
+            out.setdefault(f.parent.parent.name, sha)
+    return out
+
+
+def demo_note(name: str, out: Path, digests: dict[str, str], published_root: Path = Path("results")) -> str | None:
+    """One line when a run of a published run's name (elsewhere, e.g. `make sweep` in results/local/) trains on other
+    expert data than the published run did: its tables then differ within sampling error, not by a regression."""
+    from poir_mjx.outputs import published_run
+
+    published = Path(published_root) / name
+    if published.resolve() == Path(out).resolve() or published_run(published) is None:
+        return None
+    theirs = published_digests(published)
+    differ = [f"{t} {digests[t]} here, {theirs[t]} there" for t in sorted(digests) if t in theirs and
+              theirs[t] != digests[t]]  # fmt: skip
+    if not differ:
+        return None
+    return (f"note: the expert data differs from the published run {published}'s ({'; '.join(differ)}): robosuite "
+            "records other demos on another machine, so the tables will differ within sampling error, not by a "
+            "regression (docs/reliability.md)")
