@@ -39,6 +39,9 @@ export PYTHONHASHSEED := 0
 SWEEP  ?= experiments/cpu-small.json
 # Extra flags for make sweep / sweep-online, e.g. SWEEP_ARGS='--planner.sigma 0.1 --replace-config' (any POIR field).
 SWEEP_ARGS ?=
+# Where make sweep / sweep-online put their run folder: a published run (results/<name>/ whose config.json git tracks)
+# is read-only for every command, so rerunning a published config goes to results/local/<name>/ (ignored by git).
+RESULTS ?= results/local
 # Where `make demos` records the scripted expert: robosuite (MuJoCo C) or mjx (vectorised, no robosuite).
 DEMO_SIM ?= robosuite
 
@@ -134,10 +137,10 @@ bench-robosuite: $(STAMP)
 bench: bench-env bench-planner bench-e2e bench-robosuite
 
 sweep: $(STAMP)
-	$(PY) -m poir_mjx.cli sweep --config $(SWEEP) $(SWEEP_ARGS)
+	$(PY) -m poir_mjx.cli sweep --config $(SWEEP) --results $(RESULTS) $(SWEEP_ARGS)
 
 sweep-online: $(STAMP)
-	$(PY) -m poir_mjx.cli sweep --config experiments/cpu-small-online.json $(SWEEP_ARGS)
+	$(PY) -m poir_mjx.cli sweep --config experiments/cpu-small-online.json --results $(RESULTS) $(SWEEP_ARGS)
 
 eval: $(STAMP)
 	@test -n "$(CKPT)" || { echo "usage: make eval CKPT=checkpoints/<task>/<file>.ckpt [EVAL_ARGS='--sigma-init 0.02 0.2 --episodes 10']"; exit 2; }

@@ -93,11 +93,17 @@ def read(path: str | Path, fmt: str, retired: Mapping[str, str] | None = None) -
     if not path.is_file():
         raise CheckpointError(f"{path}: no such checkpoint file")
     damaged = "; the file is damaged or truncated: delete it and it is made again"
+    raw = path.read_bytes()
+    if not raw or not (0x80 <= raw[0] <= 0x8F or raw[0] in (0xDE, 0xDF)):  # every checkpoint is a msgpack map
+        start = raw[:1].decode("latin-1") if raw else "nothing"
+        raise CheckpointError(f"{path}: not a poir-mjx checkpoint (it starts with {start!r}, a checkpoint with a "
+                              "msgpack map); give a .ckpt file a sweep made")  # fmt: skip
     try:
-        blob = serialization.msgpack_restore(path.read_bytes())
+        blob = serialization.msgpack_restore(raw)
     except Exception as e:
         raise CheckpointError(f"{path}: not a poir-mjx checkpoint ({type(e).__name__}: {e}){damaged}") from e
-    if isinstance(blob, dict) and "payload" in blob:  # checksummed (files written before it carry none)
+    checked = isinstance(blob, dict) and "payload" in blob
+    if checked:  # checksummed (files written before it carry none: refused below)
         payload = blob["payload"]
         if not isinstance(payload, bytes) or hashlib.sha256(payload).hexdigest() != blob.get("sha256"):
             raise CheckpointError(f"{path}: field 'sha256' does not match the content{damaged}")
@@ -110,6 +116,9 @@ def read(path: str | Path, fmt: str, retired: Mapping[str, str] | None = None) -
     got = blob.get("format")
     if retired and got in retired:
         raise CheckpointError(f"{path}: format {got!r}: {retired[got]}")
+    if not checked:
+        raise CheckpointError(f"{path}: written before checkpoints carried a sha256, so its content cannot be verified; "
+                              "delete it and it is made again")  # fmt: skip
     if got != fmt:
         raise CheckpointError(f"{path}: field 'format' is {got!r}, expected {fmt!r}")
     return blob
@@ -125,23 +134,25 @@ def json_field(path: str | Path, blob: Mapping[str, Any], name: str) -> Any:
         raise CheckpointError(f"{path}: field '{name}' is not valid JSON ({e})") from e
 
 
-def restore(path: str | Path, template: Any, blob: Mapping[str, Any], name: str, *, cast_floats: bool = False) -> Any:
+def restore(path: str | Path, template: Any, blob: Mapping[str, Any], name: str, *, cast_floats: bool = False,
+            finite: bool = False) -> Any:  # fmt: skip
     """Field `name` of a checkpoint put back into the structure of `template`, entry by entry by name.
 
     template: a pytree of arrays or ``jax.ShapeDtypeStruct`` (e.g. from ``jax.eval_shape``) giving
     every entry's name, shape and dtype. cast_floats: accept a stored floating array of another
-    float dtype and cast it (e.g. float64 parameters into float32); otherwise dtypes must match.
+    float dtype and cast it (e.g. float64 parameters into float32); otherwise dtypes must match. finite: every
+    floating entry must be finite in the template's dtype (network weights: a NaN loads as a silent failure).
     Leaves come back as jax arrays of the template's dtypes.
     """
     if name not in blob:
         raise CheckpointError(f"{path}: field '{name}' is missing")
     _register_unknown_nodes(template)
     want = serialization.to_state_dict(template)
-    checked = _check(str(path), want, blob[name], name, cast_floats)
+    checked = _check(str(path), want, blob[name], name, cast_floats, finite)
     return serialization.from_state_dict(template, checked)
 
 
-def _check(path: str, want: Any, got: Any, where: str, cast_floats: bool) -> Any:
+def _check(path: str, want: Any, got: Any, where: str, cast_floats: bool, finite: bool = False) -> Any:
     """`got` validated against the state dict `want`; returns it with leaves as jax arrays of `want`'s dtypes."""
     if isinstance(want, dict):
         if not isinstance(got, dict):
@@ -152,7 +163,7 @@ def _check(path: str, want: Any, got: Any, where: str, cast_floats: bool) -> Any
         extra = sorted(set(got) - set(want))
         if extra:
             raise CheckpointError(f"{path}: field '{where}.{extra[0]}' is not expected here")
-        return {k: _check(path, v, got[k], f"{where}.{k}", cast_floats) for k, v in want.items()}
+        return {k: _check(path, v, got[k], f"{where}.{k}", cast_floats, finite) for k, v in want.items()}
     if want is None:
         if got is not None:
             raise CheckpointError(f"{path}: field '{where}' is {_kind(got)}, expected none")
@@ -166,6 +177,12 @@ def _check(path: str, want: Any, got: Any, where: str, cast_floats: bool) -> Any
         raise CheckpointError(f"{path}: field '{where}' has shape {x.shape}, expected {shape}")
     if x.dtype != dtype and not (cast_floats and _floating(x.dtype) and _floating(dtype)):
         raise CheckpointError(f"{path}: field '{where}' has dtype {x.dtype}, expected {dtype}")
+    if finite and _floating(dtype):
+        with np.errstate(over="ignore", invalid="ignore"):
+            ok = np.isfinite(x.astype(dtype))
+        if not ok.all():
+            raise CheckpointError(f"{path}: field '{where}' holds NaN or inf (entry {np.argwhere(~ok)[0].tolist()}); "
+                                  "the agent diverged or the file was edited: delete it and it is made again")  # fmt: skip
     return jax.numpy.asarray(x, dtype)
 
 

@@ -12,12 +12,12 @@ from typing import Annotated, Literal, Optional
 import tyro
 
 from poir_mjx.flags import flags_type
-from poir_mjx.core.config import PRESETS, REWARDS, PlannerConfig, POIRConfig
+from poir_mjx.core.config import PlannerConfig, POIRConfig
 from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS, TASKS
+from poir_mjx.outputs import file_pair
+from poir_mjx.typed_config import NOISE, SEED
 
 Task = Literal[TASKS]  # type: ignore[valid-type]
-Preset = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
-Reward = Literal[REWARDS]  # type: ignore[valid-type]
 
 # Every POIR config field as a flag (--ensemble-size, --planner.sigma, --normalizer.clip, --online.num-envs, ...).
 POIRFlags = flags_type(POIRConfig, "(default: the config file's)")
@@ -42,10 +42,19 @@ class Sweep:
     poir: Annotated[POIRFlags, tyro.conf.arg(name="", prefix_name=False)] = POIRFlags()  # type: ignore[valid-type]
     """POIR config fields, added to the file's "overrides" (a flag wins over the file)."""
 
+    def outputs(self):
+        """What the command writes, checked before any work (poir_mjx/outputs.py; the run folder: run_sweep)."""
+        return [(self.results, "folder", "--results"), (self.data, "folder", "--data"),
+                (self.checkpoints, "folder", "--checkpoints")]
+
 
 @dataclasses.dataclass(frozen=True)
 class Eval:
     """Evaluate one checkpoint on a noise grid and print the table (make eval CKPT=..., make xsim CKPT=...)."""
+
+    ZERO_OK = ("seed",)
+    BOUNDS = {"seed": SEED, "episodes": (1, 10**6), "max_steps": (1, 10**6), "workers": (1, 1024),
+              "sigma_init": NOISE, "sigma_action": NOISE}
 
     ckpt: Path
     """Checkpoint file (checkpoints/<task>/*.ckpt, made by a sweep)."""
@@ -73,6 +82,9 @@ class Eval:
     planner: PlannerFlags = PlannerFlags()  # type: ignore[valid-type]
     """Planner settings replacing the checkpoint's (POIR methods only)."""
 
+    def outputs(self):
+        return [] if self.out is None else [(self.out, "file", "--out")]
+
 
 @dataclasses.dataclass(frozen=True)
 class Compare:
@@ -82,6 +94,9 @@ class Compare:
     """Run folders (results/<name>)."""
     out: Optional[Path] = None
     """Also write the table to this file (markdown)."""
+
+    def outputs(self):
+        return [] if self.out is None else [(self.out, "file", "--out")]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -98,10 +113,17 @@ class Report:
     """First rewrite each published run's tables and plots from its cell records with this version's report code
     (nothing is simulated; a run published without its cells is left as it is)."""
 
+    def outputs(self):
+        if self.check:
+            return []
+        return [(self.out, "file", "--out") if self.out else (self.results / "README.md", "file", "--results")]
+
 
 @dataclasses.dataclass(frozen=True)
 class Envs:
     """Export the robosuite tasks to MJX-ready MJCF under envs/ (make envs; needs robosuite)."""
+
+    EMPTY_OK = ("task",)
 
     out: Path = Path("envs")
     """Output folder."""
@@ -110,10 +132,16 @@ class Envs:
     check: bool = False
     """Only export the tasks whose files are missing."""
 
+    def outputs(self):
+        return [(self.out, "folder", "--out")]
+
 
 @dataclasses.dataclass(frozen=True)
 class DemosGenerate:
     """Write robomimic HDF5 files of successful scripted-expert demos (make demos)."""
+
+    ZERO_OK = ("seed",)
+    BOUNDS = {"seed": SEED, "num": (1, 10**6), "batch": (1, 2**16), "sigma_init": NOISE}
 
     tasks: tuple[Task, ...] = TASKS  # type: ignore[valid-type]
     """Tasks to record."""
@@ -132,10 +160,16 @@ class DemosGenerate:
     x64: bool = False
     """Record MJX demos with float64 physics (jax_enable_x64): NutAssemblySquare's grasp needs it (see demos success)."""
 
+    def outputs(self):
+        return [(self.out, "folder", "--out")]
+
 
 @dataclasses.dataclass(frozen=True)
 class DemosSuccess:
     """Measure the scripted expert's success rate and write a table (make expert-success)."""
+
+    ZERO_OK = ("seed", "batch")
+    BOUNDS = {"seed": SEED, "episodes": (1, 10**6), "batch": (0, 2**16), "sigma_init": NOISE}
 
     tasks: tuple[Task, ...] = TASKS  # type: ignore[valid-type]
     """Tasks to measure."""
@@ -156,88 +190,9 @@ class DemosSuccess:
     """Run the MJX physics in float64 (jax_enable_x64). NutAssemblySquare's grasp needs it in MJX: the expert succeeds
     in 20 of 32 float32 episodes, 32 of 32 in float64 (docs/expert-data.md)."""
 
-
-@dataclasses.dataclass(frozen=True)
-class BenchEnv:
-    """MJX vs robosuite control-step throughput (make bench-env) -> <out>/<name>.{json,md}."""
-
-    out: Path = Path("results/bench")
-    """Output folder."""
-    tasks: tuple[Task, ...] = TASKS  # type: ignore[valid-type]
-    """Tasks to time."""
-    batch_sizes: tuple[int, ...] = (1, 16, 64, 256)
-    """MJX batch sizes."""
-    contact_rich_batch_sizes: Optional[tuple[int, ...]] = None
-    """Batch sizes for PickPlaceCan and NutAssemblySquare (default: --batch-sizes)."""
-    steps: int = 5
-    """Timed MJX control steps per batch size."""
-    robosuite_steps: int = 100
-    """Timed robosuite control steps (where robosuite is installed)."""
-    name: str = "env"
-    """Output file name without extension."""
-
-
-@dataclasses.dataclass(frozen=True)
-class BenchPlanner:
-    """POIR planner calls per second (make bench-planner) -> <out>/planner.{json,md}."""
-
-    out: Path = Path("results/bench")
-    """Output folder."""
-    presets: tuple[Preset, ...] = ("cpu-small", "paper")  # type: ignore[valid-type]
-    """Presets to time."""
-    rewards: tuple[Reward, ...] = REWARDS  # type: ignore[valid-type]
-    """Imitation rewards to time."""
-    batch_sizes: tuple[int, ...] = (1, 16)
-    """Episodes per planner call."""
-    paper_batch_sizes: Optional[tuple[int, ...]] = None
-    """Batch sizes for the paper preset (default: --batch-sizes)."""
-    calls: int = 5
-    """Timed calls per row."""
-    expert_states: int = 30000
-    """Expert states the L2 reward searches."""
-
-
-@dataclasses.dataclass(frozen=True)
-class BenchE2E:
-    """Evaluated episodes per minute on Lift, per preset and method (make bench-e2e) -> <out>/e2e.{json,md}."""
-
-    out: Path = Path("results/bench")
-    """Output folder."""
-    presets: tuple[Preset, ...] = ("cpu-small",)  # type: ignore[valid-type]
-    """Presets to time."""
-    methods: tuple[str, ...] = ("EBC", "POIR-DRIL")
-    """Methods from the registry."""
-    episodes: int = 16
-    """Episodes per batch."""
-    steps: int = 100
-    """Control steps per episode."""
-    num_demos: int = DEFAULT_NUM_DEMOS
-    """Scripted-expert demonstrations to train on."""
-    demo_simulator: Literal["auto", "robosuite", "mjx"] = "auto"
-    """Where the demos are recorded: "auto" (robosuite where installed, else MJX), "robosuite" or "mjx"."""
-    demo_batch: int = 0
-    """MJX demo episodes per compiled batch (0: 256 on an accelerator, 16 on a CPU)."""
-
-
-@dataclasses.dataclass(frozen=True)
-class BenchRobosuite:
-    """Episodes in robosuite: bare stepping vs EBC and POIR-DRIL collection, plain and overlapped
-    (make bench-robosuite) -> <out>/robosuite-e2e.{json,md}, each row written as it finishes."""
-
-    out: Path = Path("results/bench")
-    """Output folder."""
-    task: Task = "lift"  # type: ignore[valid-type]
-    """Task to step."""
-    methods: tuple[str, ...] = ("EBC", "POIR-DRIL")
-    """Methods from the registry (their cpu-small agents, trained on first use from the scripted demos)."""
-    episodes: int = 16
-    """Episodes per timed batch."""
-    steps: int = 200
-    """Control steps per episode (episodes that succeed stop earlier: the rate counts steps taken)."""
-    workers: int = 0
-    """robosuite worker processes (0: one per CPU core)."""
-    sigma_init: float = 0.3
-    """Initial arm-joint noise (high enough that episodes run long)."""
+    def outputs(self):
+        tag = "_".join(self.simulator)
+        return [(self.out, "folder", "--out"), *file_pair(self.out, f"success_{tag}", "--out")]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -255,3 +210,6 @@ class GpuCheck:
     """Stages to run (always in priority order)."""
     only: Optional[Literal["env", "planner", "e2e", "sweep", "expert"]] = None
     """Run this one stage here and now, no deadline (what the runner's child processes do)."""
+
+    def outputs(self):
+        return [(self.out, "folder", "--out"), (self.scratch, "folder", "--scratch")]

@@ -1,8 +1,9 @@
 """The one validation mechanism of the project's typed, frozen config dataclasses (POIR, the sweep, the baselines).
 
 Each config class says what its field types cannot: ``ZERO_OK`` (integers that may be 0), ``SIGNED`` (numbers that
-may be negative), ``UNIT`` (numbers in [0, 1]), ``OPEN_UNIT`` (numbers in [0, 1), e.g. discounts), and a
-``cross_check(prefix)`` method for rules between fields. ``check`` applies the types (``Literal``, bool, int, float,
+may be negative), ``UNIT`` (numbers in [0, 1]), ``OPEN_UNIT`` (numbers in [0, 1), e.g. discounts), ``BOUNDS``
+({field: (low, high)}, inclusive; an integer without one is at most ``MAX_INT``), ``EMPTY_OK`` (lists that may be
+empty), and a ``cross_check(prefix)`` method for rules between fields. ``check`` applies the types (``Literal``, bool, int, float,
 str, dict, ``tuple[X, ...]``, nested configs) and then those; ``from_dict`` builds a config from plain data
 (JSON) and checks it. A ConfigError names the dotted field.
 """
@@ -15,6 +16,11 @@ import typing
 from typing import Literal
 
 
+MAX_INT = 2**31 - 1  # any integer field's ceiling unless its class's BOUNDS says otherwise (seeds: uint32)
+SEED = (0, 2**32 - 1)  # a seed's bounds: what jax.random.PRNGKey takes
+NOISE = (0.0, 10.0)  # a noise level's bounds (a standard deviation in radians or action units)
+
+
 class ConfigError(ValueError):
     """A configuration value is malformed; the message names the field."""
 
@@ -22,7 +28,8 @@ class ConfigError(ValueError):
 def check(cfg, prefix: str = ""):
     """Validate `cfg` (recursively) and return it; the first bad value raises a ConfigError naming its field."""
     hints = typing.get_type_hints(type(cfg))
-    rules = {k: set(getattr(cfg, k, ())) for k in ("ZERO_OK", "SIGNED", "UNIT", "OPEN_UNIT")}
+    rules = {k: set(getattr(cfg, k, ())) for k in ("ZERO_OK", "SIGNED", "UNIT", "OPEN_UNIT", "EMPTY_OK")}
+    rules["BOUNDS"] = dict(getattr(cfg, "BOUNDS", {}))
     for f in dataclasses.fields(cfg):
         v, name, t = getattr(cfg, f.name), prefix + f.name, hints[f.name]
         if dataclasses.is_dataclass(t):
@@ -30,7 +37,7 @@ def check(cfg, prefix: str = ""):
                 raise ConfigError(f"{name}: expected a {t.__name__}, got {v!r}")
             check(v, name + ".")
         elif typing.get_origin(t) is tuple:
-            if not isinstance(v, tuple) or not v:
+            if not isinstance(v, tuple) or not (v or f.name in rules["EMPTY_OK"]):
                 raise ConfigError(f"{name}: must be a non-empty list, got {v!r}")
             dup = sorted({x for x in v if v.count(x) > 1}, key=str)
             if dup:
@@ -55,8 +62,11 @@ def _check_value(v, t, name: str, field: str, rules: dict) -> None:
     elif t is int:
         if isinstance(v, bool) or not isinstance(v, int):
             raise ConfigError(f"{name}: expected an integer, got {v!r}")
-        if v < 0 or (v == 0 and field not in rules["ZERO_OK"]):
-            raise ConfigError(f"{name}: must be {'>= 0' if field in rules['ZERO_OK'] else 'positive'}, got {v}")
+        if v < 0 and field not in rules["SIGNED"] or (v == 0 and field not in rules["ZERO_OK"]):
+            raise ConfigError(f"{name}: must be {'>= 0' if field in rules['ZERO_OK'] else 'positive'}, got {_short(v)}")
+        lo, hi = rules["BOUNDS"].get(field, (None, MAX_INT))
+        if (lo is not None and v < lo) or v > hi:
+            raise ConfigError(f"{name}: must be in [{lo if lo is not None else 0}, {hi}], got {_short(v)}")
     elif t is float:
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise ConfigError(f"{name}: expected a number, got {v!r}")
@@ -68,12 +78,19 @@ def _check_value(v, t, name: str, field: str, rules: dict) -> None:
             raise ConfigError(f"{name}: must be in [0, 1), got {v}")
         if field not in rules["SIGNED"] and v < 0:
             raise ConfigError(f"{name}: must be >= 0, got {v}")
+        if field in rules["BOUNDS"] and not rules["BOUNDS"][field][0] <= v <= rules["BOUNDS"][field][1]:
+            raise ConfigError(f"{name}: must be in [{rules['BOUNDS'][field][0]}, {rules['BOUNDS'][field][1]}], got {v}")
     elif t is str:
         if not isinstance(v, str):
             raise ConfigError(f"{name}: expected a string, got {v!r}")
     elif t is dict:
         if not isinstance(v, dict):
             raise ConfigError(f"{name}: expected an object, got {v!r}")
+
+
+def _short(v: int) -> str:
+    """An integer as an error message shows it (a 5000-digit one as its digit count)."""
+    return str(v) if abs(v) < 10**30 else f"an integer of {len(str(abs(v))) if abs(v) < 10**4000 else 'over 4000'} digits"
 
 
 def check_keys(d: dict, cls, source: str) -> None:

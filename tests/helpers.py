@@ -135,3 +135,63 @@ def x64(enabled: bool):
         yield
     finally:
         jax.config.update("jax_enable_x64", prev)
+
+
+# ---- a project folder to probe (tests/test_hostile_inputs.py, tests/test_outputs.py) -------------------------------
+
+PUBLISHED = "pub"  # the published run's name in `project`
+
+
+def project(root, cells: dict | None = None):
+    """A project folder under `root` (a git work tree) with a published run ``results/pub`` (config.json tracked by
+    git, a table, a cell record), and results/, checkpoints/ and data/ holding a file each; returns the root."""
+    import json
+    import subprocess
+    from pathlib import Path
+
+    root = Path(root)
+    run = root / "results" / PUBLISHED
+    cell = run / "cells" / "lift" / "EBC" / "si=0.02_sa=0_seed=0.json"
+    cell.parent.mkdir(parents=True)
+    (run / "config.json").write_text(json.dumps({"name": PUBLISHED, "tasks": ["lift"], "methods": ["EBC"]}))
+    (run / "lift.md").write_text("| method | σ_init 0.02 |\n")
+    cell.write_text(json.dumps(cells or {"config_hash": "x", "episodes": 10, "successes": 4, "diverged": 0}))
+    for folder in ("checkpoints/lift", "data/demos"):
+        (root / folder).mkdir(parents=True)
+        (root / folder / "keep.bin").write_bytes(b"\0\1\2")
+    subprocess.run(["git", "init", "-q"], cwd=root, check=True)
+    subprocess.run(["git", "add", str(run / "config.json")], cwd=root, check=True)
+    return root
+
+
+def snapshot(root) -> dict:
+    """sha256 (or the link's target, or the kind) of every entry under results/, checkpoints/ and data/ of `root`."""
+    import hashlib
+    import os
+    import stat
+    from pathlib import Path
+
+    out = {}
+    for top in ("results", "checkpoints", "data"):
+        for here, dirs, files in os.walk(Path(root) / top):
+            for name in dirs + files:
+                p = Path(here) / name
+                st = os.lstat(p)
+                if stat.S_ISLNK(st.st_mode):
+                    out[str(p)] = "link " + os.readlink(p)
+                elif stat.S_ISREG(st.st_mode):
+                    out[str(p)] = hashlib.sha256(p.read_bytes()).hexdigest()
+                else:
+                    out[str(p)] = stat.S_IFMT(st.st_mode)
+    return out
+
+
+def one_line_error(capsys) -> str:
+    """The command's error, asserted to be one line starting 'error: ', the last on stderr (a sweep says what runs
+    first, on one line of its own) with no traceback; returned without the prefix."""
+    err = capsys.readouterr().err
+    lines = err.rstrip("\n").split("\n")
+    assert err.endswith("\n") and "Traceback" not in err and len(lines) <= 2, err
+    assert lines[-1].startswith("error: ") and not any(ln.startswith("error: ") for ln in lines[:-1]), err
+    assert len(lines) == 1 or lines[0].startswith("sweep "), err
+    return lines[-1][len("error: "):]

@@ -76,7 +76,7 @@ def test_e2e_bench_records_its_demos_in_mjx_without_robosuite(monkeypatch):
 
 def test_benchmarks_keep_the_rows_measured_before_an_interruption(tmp_path, monkeypatch):
     from poir_mjx.bench import planner
-    from poir_mjx.options import BenchPlanner
+    from poir_mjx.bench.options import BenchPlanner
 
     calls = {"n": 0}
 

@@ -18,7 +18,7 @@ import numpy as np
 from poir_mjx.atomic import atomic_write_text
 from poir_mjx.bench.env import device_name
 from poir_mjx.versions import command_line
-from poir_mjx.options import BenchE2E
+from poir_mjx.bench.options import BenchE2E
 from poir_mjx.envs.env import make_params
 from poir_mjx.sweep.artifacts import demos_for, train_or_load
 from poir_mjx.eval.episodes import mjx_evaluator

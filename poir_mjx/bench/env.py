@@ -18,7 +18,7 @@ import numpy as np
 
 from poir_mjx.atomic import atomic_write_text
 from poir_mjx.versions import command_line
-from poir_mjx.options import BenchEnv
+from poir_mjx.bench.options import BenchEnv
 from poir_mjx.envs.env import batched, make_env, make_params
 from poir_mjx.envs.tasks import make_robosuite
 from poir_mjx.optional import has_robosuite

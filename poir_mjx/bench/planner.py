@@ -18,7 +18,7 @@ import jax.numpy as jnp
 from poir_mjx.atomic import atomic_write_text
 from poir_mjx.bench.env import device_name
 from poir_mjx.versions import command_line
-from poir_mjx.options import BenchPlanner
+from poir_mjx.bench.options import BenchPlanner
 from poir_mjx.core import ensemble as ens
 from poir_mjx.core.agent import POIR, POIRParams
 from poir_mjx.core.config import PRESETS

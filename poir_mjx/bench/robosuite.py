@@ -21,7 +21,7 @@ import numpy as np
 from poir_mjx.atomic import atomic_write_text
 from poir_mjx.bench.env import device_name
 from poir_mjx.versions import command_line
-from poir_mjx.options import BenchRobosuite
+from poir_mjx.bench.options import BenchRobosuite
 from poir_mjx.eval import robosuite_eval
 from poir_mjx.rollout.evaluator import episode_keys
 from poir_mjx.versions import stack_line

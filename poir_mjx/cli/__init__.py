@@ -15,6 +15,7 @@ subcommand lists its flags). Bad input: one line on stderr naming the file or th
 
 from __future__ import annotations
 
+import errno
 import sys
 
 from poir_mjx import options as o
@@ -32,10 +33,10 @@ COMMANDS: tuple[Command, ...] = (
     Command("envs", o.Envs, "poir_mjx.cli.run:envs"),
     Command("demos generate", o.DemosGenerate, "poir_mjx.cli.demos:run_generate"),
     Command("demos success", o.DemosSuccess, "poir_mjx.cli.demos:run_success"),
-    Command("bench env", o.BenchEnv, "poir_mjx.bench.env:run"),
-    Command("bench planner", o.BenchPlanner, "poir_mjx.bench.planner:run"),
-    Command("bench e2e", o.BenchE2E, "poir_mjx.bench.e2e:run"),
-    Command("bench robosuite", o.BenchRobosuite, "poir_mjx.bench.robosuite:run"),
+    Command("bench env", "poir_mjx.bench.options:BenchEnv", "poir_mjx.bench.env:run"),
+    Command("bench planner", "poir_mjx.bench.options:BenchPlanner", "poir_mjx.bench.planner:run"),
+    Command("bench e2e", "poir_mjx.bench.options:BenchE2E", "poir_mjx.bench.e2e:run"),
+    Command("bench robosuite", "poir_mjx.bench.options:BenchRobosuite", "poir_mjx.bench.robosuite:run"),
     Command("gpu-check", o.GpuCheck, "poir_mjx.gpucheck.command:run"),
     Command("video", "poir_mjx.video:VideoConfig", "poir_mjx.video.command:run", "poir_mjx.video.render:check_gl"),
     Command("diagnose", "poir_mjx.diagnose.config:DiagnoseConfig", "poir_mjx.diagnose.run:run",
@@ -47,6 +48,20 @@ GROUPS = {
     "bench": ("Throughput benchmarks (make bench-env, bench-planner, bench-e2e, bench-robosuite).", None),
 }
 PROG = "poir-mjx"
+# OSErrors reported as one line (exit status 2) rather than a traceback: no space, no quota, read-only, forbidden.
+ENVIRONMENT_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM}
+
+
+def check_flags(opts) -> None:
+    """The options' values checked as every typed config is (``typed_config.check``: types, signs, bounds), each
+    error naming the flag."""
+    from poir_mjx.typed_config import ConfigError, check
+
+    try:
+        check(opts)
+    except ConfigError as e:
+        field, _, problem = str(e).partition(": ")
+        raise ConfigError(f"--{field.replace('_', '-')}: {problem}") from None
 
 
 def main(argv=None) -> int:
@@ -67,6 +82,7 @@ def main(argv=None) -> int:
             print(f"error: {e}", file=sys.stderr)
             return 2
 
+    from poir_mjx.core.agent import TrainingDivergedError
     from poir_mjx.core.checkpoint import CheckpointError
     from poir_mjx.core.config import ConfigError
     from poir_mjx.data.robomimic import DatasetError
@@ -77,13 +93,23 @@ def main(argv=None) -> int:
     from poir_mjx.optional import MissingDependencyError
 
     try:
+        from poir_mjx.outputs import check_options
+
+        check_flags(opts)  # every value in its bounds (the one validation of typed configs), before any work
+        check_options(opts)  # every path the command writes, before any work
         if command.name not in ("compare", "report", "envs"):  # every command that computes: full float32 on a GPU
             from poir_mjx.devices import pin_precision
 
             pin_precision()
         rc = command.function()(opts)
     except (ConfigError, CheckpointError, DatasetError, ModelFileError, UnknownTaskError, UnknownMethodError,
-            MissingDependencyError, DeviceError) as e:  # fmt: skip
+            MissingDependencyError, DeviceError, TrainingDivergedError) as e:  # fmt: skip
         print(f"error: {e}", file=sys.stderr)
+        return 2
+    except OSError as e:  # the machine's, not the input's: a full disk, a read-only or forbidden folder
+        if e.errno not in ENVIRONMENT_ERRNOS:
+            raise
+        print(f"error: {e.filename or 'a write'}: {e.strerror} (files are written atomically: none was left "
+              "half-written)", file=sys.stderr)  # fmt: skip
         return 2
     return rc if type(rc) is int else 0

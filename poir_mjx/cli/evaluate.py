@@ -16,23 +16,6 @@ def check(opts: options.Eval) -> None:
     for flag, levels in (("--sigma-init", opts.sigma_init), ("--sigma-action", opts.sigma_action)):
         if not all(math.isfinite(x) and x >= 0 for x in levels):
             raise ConfigError(f"{flag}: noise levels must be finite and >= 0")
-    if opts.out is not None:
-        check_output_file(opts.out, "--out")
-
-
-def check_output_file(path, flag: str) -> None:
-    """Before any work: `path` can be written as a file (not a directory; its folder exists or can be made)."""
-    import os
-    from pathlib import Path
-
-    path = Path(path)
-    if path.is_dir():
-        raise ConfigError(f"{flag}: {path} is a directory, expected a file name")
-    parent = path.parent
-    while not parent.exists():
-        parent = parent.parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK):
-        raise ConfigError(f"{flag}: {path} cannot be written ({parent} is not a writable folder)")
 
 
 def evaluate(opts: options.Eval) -> int:

@@ -28,9 +28,13 @@ from flax import struct
 from poir_mjx.core import ensemble as ens
 from poir_mjx.core import rewards
 from poir_mjx.core import selection as sel
+from poir_mjx.core.config import ConfigError, POIRConfig
 from poir_mjx.core.selection import top_k_mean  # noqa: F401  (the planner's top-k, re-exported)
-from poir_mjx.core.config import POIRConfig
 from poir_mjx.core.normalizer import Normalizer, observation_floor
+
+
+class TrainingDivergedError(ValueError):
+    """A training loss became NaN or inf: the run stops with one line and records nothing."""
 
 
 @struct.dataclass
@@ -102,6 +106,8 @@ class POIR:
             raise ValueError(f"obs: expected [n, {self.obs_size}] and next_obs of the same shape, got {obs.shape}, {next_obs.shape}")
         if act.shape != (obs.shape[0], self.act_size):
             raise ValueError(f"act: expected shape ({obs.shape[0]}, {self.act_size}), got {act.shape}")
+        if obs.shape[0] < cfg.train.batch_size:  # before any epoch: one line, not a failure inside the first
+            raise ConfigError(f"train.batch_size: {cfg.train.batch_size} exceeds the {obs.shape[0]} expert transitions")
         nc = cfg.normalizer
         obs_norm = Normalizer.fit(obs, cfg.normalize, observation_floor(nc, obs_groups, self.obs_size))
         act_norm = Normalizer.fit(act, cfg.normalize, nc.action_std_floor)
@@ -118,6 +124,11 @@ class POIR:
                 st, loss = ens.train_epoch(module, opt, cfg.train.batch_size, st, x, y, jax.random.fold_in(k_loop, e),
                                            weights)  # fmt: skip
                 history[name].append(np.asarray(loss))
+                if not np.all(np.isfinite(history[name][-1])):  # stop: nothing trained on NaN is saved or evaluated
+                    raise TrainingDivergedError(
+                        f"train: the {name} ensemble's loss is {history[name][-1].tolist()} at epoch {e + 1} of "
+                        f"{epochs}: training diverged (field 'train.learning_rate' is {cfg.train.learning_rate}); "
+                        "nothing was recorded")  # fmt: skip
                 if callback is not None:
                     callback(name, e, np.asarray(loss))
             return st.params

@@ -65,7 +65,8 @@ def load(path: str | Path, config: POIRConfig | None = None,
                     f"{path}: observation layout field '{k}' is {ck_layout.get(k)!r} in the checkpoint, expected {v!r}"
                 )
     agent = POIR(ck_config, ck_layout["obs_size"], ck_layout["act_size"])
-    params = codec.restore(path, params_template(agent, blob.get("params")), blob, "params", cast_floats=True)
+    params = codec.restore(path, params_template(agent, blob.get("params")), blob, "params", cast_floats=True,
+                           finite=True)  # fmt: skip
     return agent, params, ck_layout
 
 

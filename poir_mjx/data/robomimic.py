@@ -105,6 +105,15 @@ def read_transitions(
     `filter_key` selects the demos listed in ``mask/<filter_key>``.
     """
     path = str(path)
+    try:
+        return _read_transitions(path, task, obs_keys, filter_key, max_demos)
+    except DatasetError:
+        raise
+    except (KeyError, OSError, TypeError, ValueError, RecursionError) as e:  # what the checks below did not foresee
+        raise DatasetError(f"{path}: unreadable ({type(e).__name__}: {' '.join(str(e).split())[:200]})") from None
+
+
+def _read_transitions(path: str, task, obs_keys, filter_key, max_demos) -> Transitions:
     with _open(path) as f:
         if "data" not in f or not isinstance(f["data"], h5py.Group):
             raise _err(path, None, "data", "missing group")
@@ -190,11 +199,20 @@ def _read_demo(path: str, name: str, demo: h5py.Group, obs_keys: Sequence[str]):
     if act.shape[1] != ACTION_SIZE:
         raise _err(path, name, "actions", f"action size {act.shape[1]}, expected {ACTION_SIZE}")
     ns = demo.attrs.get("num_samples")
-    if ns is not None and int(ns) != t:
-        raise _err(path, name, "attrs['num_samples']", f"is {int(ns)} but actions has {t} rows")
+    if ns is not None:
+        if np.ndim(ns) != 0 or not isinstance(ns.item() if hasattr(ns, "item") else ns, int) or isinstance(ns, bool):
+            raise _err(path, name, "attrs['num_samples']", f"must be an integer, got {_attr(ns)!r}")
+        if int(ns) != t:
+            raise _err(path, name, "attrs['num_samples']", f"is {int(ns)} but actions has {t} rows")
     for group in ("obs", "next_obs"):
         if group not in demo:
             raise _err(path, name, group, "missing group")
+        try:
+            node = demo[group]
+        except (KeyError, OSError) as e:  # a dangling link
+            raise _err(path, name, group, f"cannot be read ({' '.join(str(e).split())})") from None
+        if not isinstance(node, h5py.Group):
+            raise _err(path, name, group, "is a dataset, expected a group")
     parts, nparts = [], []
     for key in obs_keys:
         o = _read(path, name, demo["obs"], key, ndim=2, field=f"obs/{key}")
@@ -222,17 +240,26 @@ def _attr(v):
 
 
 def _read(path, demo_name, group, key, ndim, field=None) -> np.ndarray:
+    """A real-valued dataset as float32 (what training uses), finite after the conversion (1e39 is not)."""
     field = field or key
     if key not in group:
         raise _err(path, demo_name, field, "missing dataset")
-    arr = group[key][()]
-    if arr.ndim != ndim:
-        raise _err(path, demo_name, field, f"expected {ndim} dimensions, got shape {arr.shape}")
-    if not np.issubdtype(arr.dtype, np.number):
-        raise _err(path, demo_name, field, f"not numeric (dtype {arr.dtype})")
+    try:
+        node = group[key]
+        arr = node[()] if isinstance(node, h5py.Dataset) else None
+    except (KeyError, OSError, ValueError, TypeError) as e:  # a dangling (external) link, an unreadable dataset
+        raise _err(path, demo_name, field, f"cannot be read ({' '.join(str(e).split())})") from None
+    if arr is None:
+        raise _err(path, demo_name, field, "is a group, expected a dataset")
+    if np.ndim(arr) != ndim:
+        raise _err(path, demo_name, field, f"expected {ndim} dimensions, got shape {np.shape(arr)}")
+    if not (np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)):
+        raise _err(path, demo_name, field, f"not real numbers (dtype {arr.dtype})")
+    with np.errstate(over="ignore", invalid="ignore"):
+        arr = arr.astype(np.float32)
     if not np.all(np.isfinite(arr)):
         bad = int(np.argwhere(~np.isfinite(arr))[0][0])
-        raise _err(path, demo_name, field, f"NaN or inf at row {bad}")
+        raise _err(path, demo_name, field, f"NaN or inf at row {bad} (in float32, as training reads it)")
     return arr
 
 

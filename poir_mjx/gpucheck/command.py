@@ -11,7 +11,7 @@ def run(opts: GpuCheck) -> int:
 
     if opts.dry_run:
         select_device("cpu", "gpu-check --dry-run")
-    elif opts.only is None:
+    else:  # --only too: a stage at GPU sizes never runs on a CPU
         select_device("gpu", "gpu-check (--dry-run for the CPU)")
     if opts.only is not None:
         run_stage(opts.only, opts.dry_run, opts.out, opts.scratch)

@@ -17,6 +17,7 @@ from poir_mjx.data.robomimic import LOW_DIM_KEYS, DatasetError, Transitions, rea
 from poir_mjx.envs.layout import obs_groups
 from poir_mjx.eval.methods import Method, get_method
 from poir_mjx.sweep.config import SweepConfig, base_config, baseline_config, config_dict, short_hash
+from poir_mjx.sweep.records import read_cell  # noqa: F401  (the one reader of cell records; here for its callers)
 
 
 def demos_for(cfg: SweepConfig, task: str, data_dir: Path, progress: bool = True) -> tuple[Transitions, dict]:
@@ -122,29 +123,6 @@ def cell_hash(cfg: SweepConfig, task: str, method: str, demo_sha256: str) -> str
         "x64": cfg.x64,
     }
     return short_hash(relevant)
-
-
-def read_cell(path: Path, chash: str) -> dict | None:
-    """The cell's record if it was made with config hash `chash`; None if absent or from another config."""
-    try:
-        rec = json.loads(path.read_text())
-    except FileNotFoundError:
-        return None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise ConfigError(f"{path}: not a readable cell record ({e}); delete it to recompute the cell") from None
-    if not isinstance(rec, dict):
-        raise ConfigError(f"{path}: not a cell record (expected a JSON object); delete it to recompute the cell")
-    if rec.get("config_hash") != chash:
-        return None
-    n, k = rec.get("episodes"), rec.get("successes")
-    for name, v in (("episodes", n), ("successes", k), ("diverged", rec.get("diverged", 0))):
-        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-            raise ConfigError(f"{path}: field '{name}' must be a count (an integer >= 0), got {v!r}; "
-                              "delete the file to recompute the cell")  # fmt: skip
-    if k > n:
-        raise ConfigError(f"{path}: field 'successes' ({k}) exceeds field 'episodes' ({n}); delete the file to "
-                          "recompute the cell")  # fmt: skip
-    return rec
 
 
 def load_run_agent(run_dir: str | Path, task: str, method: str, seed: int = 0,

@@ -20,7 +20,7 @@ from poir_mjx.core.agent import POIR
 from poir_mjx.core.config import to_dict
 from poir_mjx.envs.env import make_env, make_params
 from poir_mjx.eval import robosuite_eval
-from poir_mjx.sweep.artifacts import read_cell
+from poir_mjx.sweep.records import read_cell
 from poir_mjx.eval.episodes import run_episodes
 from poir_mjx.eval.stats import wilson_interval
 from poir_mjx.sweep.config import SweepConfig, baseline_config
@@ -62,6 +62,13 @@ class CellBatch:
             rec["mean_episode_length"] = float(np.mean(lengths))
         return rec
 
+    def done(self, j: int) -> dict | None:
+        """Cell j's record, if made with this config (its schema checked: ``records.read_cell``)."""
+        si, sa = self.grid[j]
+        return read_cell(self.paths[j], self.chash, {"episodes": self.cfg.episodes, "task": self.task,
+                                                     "method": self.method, "seed": self.seed, "sigma_init": si,
+                                                     "sigma_action": sa})  # fmt: skip
+
     def write(self, j: int, rec: dict) -> None:
         atomic_write_text(self.paths[j], json.dumps(rec, indent=2) + "\n")
 
@@ -72,7 +79,7 @@ def run_offline_cells(b: CellBatch, method, agent: POIR, params, progress: bool,
     batch). robosuite: one call per cell, each cell's record written as soon as its episodes end, so a stopped run
     keeps every finished cell (a PickPlaceCan cell of POIR-DRIL takes about 7 minutes on the 2-core CPU, of POIR-L2
     about 45). on_cells(episodes) after each call's records are written."""
-    todo = [j for j in range(len(b.grid)) if not read_cell(b.paths[j], b.chash)]
+    todo = [j for j in range(len(b.grid)) if not b.done(j)]
     for js in [todo] if b.cfg.simulator == "mjx" else [[j] for j in todo]:
         if js:
             on_cells(_evaluate_cells(b, method, agent, params, js, progress))
@@ -103,7 +110,7 @@ def run_online_cells(b: CellBatch, agent: POIR, params, offline: tuple, ckpt_dir
     trainer = _online_trainer(b.task, agent, b.cfg.max_steps, b.cfg.simulator if where == "sweep" else where,
                               b.cfg.simulator, b.cfg.workers)  # fmt: skip
     for j, (s_i, s_a) in enumerate(b.grid):
-        if read_cell(b.paths[j], b.chash):
+        if b.done(j):
             on_cell(b.cfg.episodes)
             continue
         t0 = time.perf_counter()
@@ -132,7 +139,7 @@ def run_baseline_cells(b: CellBatch, tr, ckpt_dir: Path, progress: bool, on_cell
     total, every = baseline.schedule(bcfg)
     expert = expert_data(tr)
     for j, (s_i, s_a) in enumerate(b.grid):
-        if read_cell(b.paths[j], b.chash):
+        if b.done(j):
             on_cell(cfg.episodes)
             continue
         t0 = time.perf_counter()

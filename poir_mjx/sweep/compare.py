@@ -20,7 +20,8 @@ from poir_mjx.eval.stats import wilson_interval
 def _read_run(run: Path) -> tuple[dict, list[dict]]:
     """(recorded sweep config, the cell records made with it) of a run folder: a cell whose config hash is
     not the one this config gives now (a stale cell, left by an earlier config or version) is left out."""
-    from poir_mjx.sweep.artifacts import cell_hash, read_cell
+    from poir_mjx.sweep.artifacts import cell_hash
+    from poir_mjx.sweep.records import load_record, read_cell
     from poir_mjx.sweep.config import SweepConfig
     from poir_mjx.sweep.run_folder import upgrade_recorded
 
@@ -28,17 +29,27 @@ def _read_run(run: Path) -> tuple[dict, list[dict]]:
     if not cfg_path.is_file():
         raise ConfigError(f"{cfg_path}: no such file (not a sweep run folder, or made before run folders recorded their config)")
     try:
-        raw = upgrade_recorded(json.loads(cfg_path.read_text()))
+        raw = json.loads(cfg_path.read_bytes().decode("utf-8"))
+        if not isinstance(raw, dict):
+            raise ConfigError(f"{cfg_path}: not a sweep config (expected a JSON object, got {type(raw).__name__})")
+        raw = upgrade_recorded(raw)
         cfg = SweepConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()})
-    except (ValueError, TypeError) as e:
-        raise ConfigError(f"{cfg_path}: not a sweep config of this version ({e})") from None
+    except ConfigError:
+        raise
+    except (OSError, ValueError, TypeError, RecursionError) as e:
+        raise ConfigError(f"{cfg_path}: not a sweep config of this version ({type(e).__name__})") from None
     recs, stale = [], 0
     for f in sorted((run / "cells").rglob("*.json")):
-        rec = json.loads(f.read_text())
-        if not isinstance(rec, dict) or "successes" not in rec:
+        rec = load_record(f)
+        if rec is None or "successes" not in rec:
             raise ConfigError(f"{f}: not a cell record")
         data = rec.get("data") if isinstance(rec.get("data"), dict) else {}
-        if read_cell(f, cell_hash(cfg, rec.get("task", ""), rec.get("method", ""), data.get("sha256", ""))) is None:
+        task, method = rec.get("task", ""), rec.get("method", "")
+        if task not in cfg.tasks or method not in cfg.methods:
+            stale += 1
+            continue
+        chash = cell_hash(cfg, task, method, str(data.get("sha256", "")))
+        if read_cell(f, chash, {"episodes": cfg.episodes, "task": task, "method": method}) is None:
             stale += 1
             continue
         recs.append(rec)

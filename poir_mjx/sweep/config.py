@@ -14,7 +14,7 @@ from poir_mjx.core.config import PRESETS, ConfigError, PlannerConfig, POIRConfig
 from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS, TASKS
 from poir_mjx.eval.methods import METHODS, get_method
 from poir_mjx.sweep.run_folder import RETIRED, run_name_problem, upgrade_recorded
-from poir_mjx.typed_config import check, check_keys
+from poir_mjx.typed_config import NOISE, SEED, check, check_keys
 
 Preset = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
 Task = Literal[TASKS]  # type: ignore[valid-type]
@@ -75,10 +75,18 @@ class SweepConfig:
 
 
     ZERO_OK = ("seeds", "workers")
+    BOUNDS = {"seeds": SEED, "episodes": (1, 10**6), "max_steps": (1, 10**6), "num_demos": (1, 10**6),
+              "demo_batch": (1, 2**16), "workers": (0, 1024), "sigma_init": NOISE, "sigma_action": NOISE}
 
     def cross_check(self, prefix: str) -> None:
         if run_name_problem(self.name):
             raise ConfigError(f"name: {run_name_problem(self.name)}")
+        for field in ("sigma_init", "sigma_action"):  # each level names its cell file ("si=<level:g>")
+            levels = getattr(self, field)
+            same = next(((a, b) for i, a in enumerate(levels) for b in levels[i + 1:] if f"{a:g}" == f"{b:g}"), None)
+            if same:
+                raise ConfigError(f"{field}: {same[0]!r} and {same[1]!r} would share one cell file (both print as "
+                                  f"{f'{same[0]:g}'}); give levels that differ in 6 significant digits")  # fmt: skip
         for m in self.methods:
             if m not in METHODS:
                 raise ConfigError(f"methods: unknown method {m!r}; expected one of {', '.join(METHODS)}")
@@ -117,13 +125,20 @@ def load_sweep_config(path: str | Path, recorded: bool = False) -> SweepConfig:
         return dict(pairs)
 
     try:
-        raw = json.loads(path.read_text(), object_pairs_hook=no_duplicates)
+        raw = json.loads(path.read_bytes().decode("utf-8"), object_pairs_hook=no_duplicates)
     except FileNotFoundError:
         raise ConfigError(f"{path}: no such config file") from None
     except IsADirectoryError:
         raise ConfigError(f"{path}: is a directory, expected a sweep config file (JSON)") from None
-    except json.JSONDecodeError as e:
-        raise ConfigError(f"{path}: not valid JSON ({e})") from None
+    except ConfigError:
+        raise
+    except UnicodeDecodeError as e:
+        raise ConfigError(f"{path}: not UTF-8 text (byte {e.start}); a sweep config is JSON") from None
+    except (json.JSONDecodeError, ValueError, RecursionError) as e:  # bad JSON, a 5000-digit number, deep nesting
+        why = "nested too deeply" if isinstance(e, RecursionError) else " ".join(str(e).split())[:200]
+        raise ConfigError(f"{path}: not valid JSON ({why})") from None
+    except OSError as e:
+        raise ConfigError(f"{path}: cannot be read ({e.strerror})") from None
     if not isinstance(raw, dict):
         raise ConfigError(f"{path}: expected a JSON object")
     if recorded:

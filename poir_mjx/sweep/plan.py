@@ -9,7 +9,8 @@ from typing import Callable, Iterator
 
 from poir_mjx.core.config import POIRConfig
 from poir_mjx.eval.methods import get_method
-from poir_mjx.sweep.artifacts import cell_hash, cell_path, read_cell
+from poir_mjx.sweep.artifacts import cell_hash, cell_path
+from poir_mjx.sweep.records import read_cell
 from poir_mjx.sweep.config import SweepConfig, base_config
 
 
@@ -24,10 +25,17 @@ class Cell:
     seed: int
     path: Path
     config_hash: str
+    episodes: int
+    """The config's episodes per cell (a record of this config must have as many)."""
+
+    def expect(self) -> dict:
+        """What a record of this cell made with this config says (``records.read_cell`` checks it)."""
+        return {"episodes": self.episodes, "task": self.task, "method": self.method, "seed": self.seed,
+                "sigma_init": self.sigma_init, "sigma_action": self.sigma_action}
 
     def record(self) -> dict | None:
-        """The cell's record if it exists and was made with this config (``read_cell`` checks it)."""
-        return read_cell(self.path, self.config_hash)
+        """The cell's record if it exists and was made with this config (``read_cell`` checks its schema)."""
+        return read_cell(self.path, self.config_hash, self.expect())
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,7 +62,7 @@ class SweepPlan:
 
     def cell(self, task: str, method: str, si: float, sa: float, seed: int) -> Cell:
         return Cell(task, method, si, sa, seed, cell_path(self.out, task, method, si, sa, seed),
-                    self.hashes[(task, method)])  # fmt: skip
+                    self.hashes[(task, method)], self.cfg.episodes)  # fmt: skip
 
     def cells(self, task: str, method: str, seed: int) -> list[Cell]:
         """The grid's cells of (task, method, seed), in grid order (the order their episodes' keys follow)."""

@@ -63,7 +63,14 @@ def check_writable(folder: Path, what: str) -> None:
 
 
 def prepare(out: Path, config: dict, replace_config: bool = False, defaults: dict | None = None) -> None:
-    """Create `out`, check it is writable, and record `config` there (or check it matches the recorded one).
+    """``check_config``, then record `config` in `out` (config.json)."""
+    atomic_write_text(out / "config.json", check_config(out, config, replace_config, defaults))
+
+
+def check_config(out: Path, config: dict, replace_config: bool = False, defaults: dict | None = None) -> str:
+    """Create `out`, check it is writable and that `config` may run there (the recorded one or a replacement the
+    caller asked for); returns config.json's text, which the caller writes once the run has done work (a run refused
+    later leaves no config behind).
 
     defaults: the config's default values; a field the recorded config lacks (it predates the field) counts as its
     default, so adding a field to the config does not orphan existing run folders."""
@@ -84,7 +91,7 @@ def prepare(out: Path, config: dict, replace_config: bool = False, defaults: dic
         if not isinstance(old, dict):
             raise ConfigError(f"{recorded}: not a sweep config (expected a JSON object, got {type(old).__name__})")
         if old == new:
-            return
+            return text
         old = upgrade_recorded(old)
         if defaults is not None:
             old = {**json.loads(json.dumps(defaults)), **old}
@@ -92,4 +99,36 @@ def prepare(out: Path, config: dict, replace_config: bool = False, defaults: dic
             diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
             raise ConfigError(f"{recorded}: this run folder was made with a different config (fields {diff}); "
                               "use another name, or --replace-config to recompute the changed cells here")  # fmt: skip
-    atomic_write_text(recorded, text)
+    return text
+
+
+def published_digests(run: Path) -> dict[str, str]:
+    """{task: the expert data's digest} its cell records name, of a run folder (empty when it has none)."""
+    out = {}
+    for f in sorted(Path(run).glob("cells/*/*/*.json")):
+        try:
+            rec = json.loads(f.read_text())
+        except (OSError, ValueError):
+            continue
+        sha = rec.get("data", {}).get("sha256") if isinstance(rec, dict) and isinstance(rec.get("data"), dict) else None
+        if isinstance(sha, str):
+            out.setdefault(f.parent.parent.name, sha)
+    return out
+
+
+def demo_note(name: str, out: Path, digests: dict[str, str], published_root: Path = Path("results")) -> str | None:
+    """One line when a run of a published run's name (elsewhere, e.g. `make sweep` in results/local/) trains on other
+    expert data than the published run did: its tables then differ within sampling error, not by a regression."""
+    from poir_mjx.outputs import published_run
+
+    published = Path(published_root) / name
+    if published.resolve() == Path(out).resolve() or published_run(published) is None:
+        return None
+    theirs = published_digests(published)
+    differ = [f"{t} {digests[t]} here, {theirs[t]} there" for t in sorted(digests) if t in theirs and
+              theirs[t] != digests[t]]  # fmt: skip
+    if not differ:
+        return None
+    return (f"note: the expert data differs from the published run {published}'s ({'; '.join(differ)}): robosuite "
+            "records other demos on another machine, so the tables will differ within sampling error, not by a "
+            "regression (docs/reliability.md)")

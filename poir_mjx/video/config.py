@@ -10,6 +10,7 @@ from pathlib import Path
 from poir_mjx.core.config import ConfigError
 from poir_mjx.envs.tasks import TASKS
 from poir_mjx.eval.methods import METHODS
+from poir_mjx.typed_config import NOISE, SEED
 
 SOURCE = "video"  # how errors name the command line's fields
 
@@ -17,6 +18,10 @@ SOURCE = "video"  # how errors name the command line's fields
 @dataclasses.dataclass(frozen=True)
 class VideoConfig:
     """Episodes of one sweep cell re-run in MJX and drawn offscreen to an MP4 (one frame per control step)."""
+
+    ZERO_OK = ("episodes", "seed", "steps")
+    BOUNDS = {"seed": SEED, "sigma_init": NOISE, "sigma_action": NOISE, "episodes": (0, 10**6), "steps": (0, 10**6),
+              "fps": (1, 1000)}
 
     run: Path
     """The sweep's run folder, results/<name>/ (its config.json says the grid, seeds and checkpoints)."""
@@ -51,6 +56,12 @@ class VideoConfig:
     """Where the sweep's checkpoints are (the sweep's --checkpoints)."""
     data: Path = Path("data/demos")
     """Where the sweep's demos are (read only if a checkpoint has to be trained again)."""
+
+    def outputs(self):
+        """The MP4 (poir_mjx/outputs.py checks it before any work); demos or a checkpoint made again go to
+        --data and --checkpoints."""
+        return [(self.out if self.out is not None else default_out(self), "file", "--out"),
+                (self.checkpoints, "folder", "--checkpoints"), (self.data, "folder", "--data")]
 
 
 def check(cfg: VideoConfig) -> None:

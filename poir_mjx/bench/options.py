@@ -1,0 +1,121 @@
+"""The options of the ``bench`` subcommands (make bench-*): one frozen dataclass each, its field docstrings the help."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Literal, Optional
+
+from poir_mjx.core.config import PRESETS, REWARDS
+from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS, TASKS
+from poir_mjx.outputs import file_pair
+from poir_mjx.typed_config import NOISE
+
+Task = Literal[TASKS]  # type: ignore[valid-type]
+Preset = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
+Reward = Literal[REWARDS]  # type: ignore[valid-type]
+
+
+@dataclasses.dataclass(frozen=True)
+class BenchEnv:
+    """MJX vs robosuite control-step throughput (make bench-env) -> <out>/<name>.{json,md}."""
+
+    BOUNDS = {"batch_sizes": (1, 2**20), "steps": (1, 10**6), "robosuite_steps": (1, 10**7)}
+
+    out: Path = Path("results/bench")
+    """Output folder."""
+    tasks: tuple[Task, ...] = TASKS  # type: ignore[valid-type]
+    """Tasks to time."""
+    batch_sizes: tuple[int, ...] = (1, 16, 64, 256)
+    """MJX batch sizes."""
+    contact_rich_batch_sizes: Optional[tuple[int, ...]] = None
+    """Batch sizes for PickPlaceCan and NutAssemblySquare (default: --batch-sizes)."""
+    steps: int = 5
+    """Timed MJX control steps per batch size."""
+    robosuite_steps: int = 100
+    """Timed robosuite control steps (where robosuite is installed)."""
+    name: str = "env"
+    """Output file name without extension."""
+
+    def outputs(self):
+        return [(self.out, "folder", "--out"), (self.name, "name", "--name"), *file_pair(self.out, self.name, "--name")]
+
+
+@dataclasses.dataclass(frozen=True)
+class BenchPlanner:
+    """POIR planner calls per second (make bench-planner) -> <out>/planner.{json,md}."""
+
+    BOUNDS = {"batch_sizes": (1, 2**20), "calls": (1, 10**6), "expert_states": (1, 10**7)}
+
+    out: Path = Path("results/bench")
+    """Output folder."""
+    presets: tuple[Preset, ...] = ("cpu-small", "paper")  # type: ignore[valid-type]
+    """Presets to time."""
+    rewards: tuple[Reward, ...] = REWARDS  # type: ignore[valid-type]
+    """Imitation rewards to time."""
+    batch_sizes: tuple[int, ...] = (1, 16)
+    """Episodes per planner call."""
+    paper_batch_sizes: Optional[tuple[int, ...]] = None
+    """Batch sizes for the paper preset (default: --batch-sizes)."""
+    calls: int = 5
+    """Timed calls per row."""
+    expert_states: int = 30000
+    """Expert states the L2 reward searches."""
+
+    def outputs(self):
+        return [(self.out, "folder", "--out"), *file_pair(self.out, "planner", "--out")]
+
+
+@dataclasses.dataclass(frozen=True)
+class BenchE2E:
+    """Evaluated episodes per minute on Lift, per preset and method (make bench-e2e) -> <out>/e2e.{json,md}."""
+
+    ZERO_OK = ("demo_batch",)
+    BOUNDS = {"episodes": (1, 2**20), "steps": (1, 10**6), "num_demos": (1, 10**6), "demo_batch": (0, 2**16)}
+
+    out: Path = Path("results/bench")
+    """Output folder."""
+    presets: tuple[Preset, ...] = ("cpu-small",)  # type: ignore[valid-type]
+    """Presets to time."""
+    methods: tuple[str, ...] = ("EBC", "POIR-DRIL")
+    """Methods from the registry."""
+    episodes: int = 16
+    """Episodes per batch."""
+    steps: int = 100
+    """Control steps per episode."""
+    num_demos: int = DEFAULT_NUM_DEMOS
+    """Scripted-expert demonstrations to train on."""
+    demo_simulator: Literal["auto", "robosuite", "mjx"] = "auto"
+    """Where the demos are recorded: "auto" (robosuite where installed, else MJX), "robosuite" or "mjx"."""
+    demo_batch: int = 0
+    """MJX demo episodes per compiled batch (0: 256 on an accelerator, 16 on a CPU)."""
+
+    def outputs(self):
+        return [(self.out, "folder", "--out"), *file_pair(self.out, "e2e", "--out")]
+
+
+@dataclasses.dataclass(frozen=True)
+class BenchRobosuite:
+    """Episodes in robosuite: bare stepping vs EBC and POIR-DRIL collection, plain and overlapped
+    (make bench-robosuite) -> <out>/robosuite-e2e.{json,md}, each row written as it finishes."""
+
+    ZERO_OK = ("workers",)
+    BOUNDS = {"episodes": (1, 2**20), "steps": (1, 10**6), "workers": (0, 1024), "sigma_init": NOISE}
+
+    out: Path = Path("results/bench")
+    """Output folder."""
+    task: Task = "lift"  # type: ignore[valid-type]
+    """Task to step."""
+    methods: tuple[str, ...] = ("EBC", "POIR-DRIL")
+    """Methods from the registry (their cpu-small agents, trained on first use from the scripted demos)."""
+    episodes: int = 16
+    """Episodes per timed batch."""
+    steps: int = 200
+    """Control steps per episode (episodes that succeed stop earlier: the rate counts steps taken)."""
+    workers: int = 0
+    """robosuite worker processes (0: one per CPU core)."""
+    sigma_init: float = 0.3
+    """Initial arm-joint noise (high enough that episodes run long)."""
+
+    def outputs(self):
+        return [(self.out, "folder", "--out"), *file_pair(self.out, "robosuite-e2e", "--out")]
