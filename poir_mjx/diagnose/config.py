@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 from pathlib import Path
 
+from poir_mjx import typed_config
 from poir_mjx.core.config import ConfigError
+from poir_mjx.typed_config import NOISE, SEED
 from poir_mjx.envs.tasks import TASKS
 from poir_mjx.eval.methods import METHODS
 
@@ -47,9 +48,20 @@ class DiagnoseConfig:
     progress: bool = True
     """Progress bars on stderr."""
 
+    ZERO_OK = ("sigma_init", "seed", "episodes", "steps", "holdout")
+    OPEN_UNIT = ("holdout",)
+    BOUNDS = {"sigma_init": NOISE, "seed": SEED, "episodes": (0, 10**6), "every": (1, 10**5), "steps": (0, 10**5)}
+
+    def outputs(self):
+        """The records and the page (poir_mjx/outputs.py checks them before any work); demos or a checkpoint made
+        again go to --data and --checkpoints."""
+        return [(self.out if self.out is not None else default_out(self), "folder", "--out"),
+                (self.checkpoints, "folder", "--checkpoints"), (self.data, "folder", "--data")]
+
 
 def check(cfg: DiagnoseConfig) -> None:
     """Reject bad fields with one line naming the field (values that need the run are checked against it later)."""
+    typed_config.check(cfg, f"{SOURCE}: ")
     if cfg.task not in TASKS:
         raise ConfigError(f"{SOURCE}: field 'task': unknown task {cfg.task!r}; expected one of {', '.join(TASKS)}")
     m = METHODS.get(cfg.method)
@@ -57,18 +69,6 @@ def check(cfg: DiagnoseConfig) -> None:
         planners = [n for n, x in METHODS.items() if x.act == "plan" and not x.online]
         raise ConfigError(f"{SOURCE}: field 'method': {cfg.method!r} is not an offline planner method; expected one "
                           f"of {', '.join(planners)}")  # fmt: skip
-    if not cfg.sigma_init or any(not (math.isfinite(v) and 0 <= v <= 10) for v in cfg.sigma_init):
-        raise ConfigError(f"{SOURCE}: field 'sigma_init' must list values in [0, 10], got {list(cfg.sigma_init)}")
-    if not cfg.episodes or any(not 0 <= e < 1_000_000 for e in cfg.episodes) or len(set(cfg.episodes)) < len(cfg.episodes):
-        raise ConfigError(f"{SOURCE}: field 'episodes' must list distinct episode indices >= 0, got {list(cfg.episodes)}")
-    if not 1 <= cfg.every <= 100_000:
-        raise ConfigError(f"{SOURCE}: field 'every' must be in 1..100000, got {cfg.every}")
-    if not 0 <= cfg.steps <= 100_000:
-        raise ConfigError(f"{SOURCE}: field 'steps' must be in 0..100000 (0: the run's max_steps), got {cfg.steps}")
-    if not (math.isfinite(cfg.holdout) and 0 <= cfg.holdout < 1):
-        raise ConfigError(f"{SOURCE}: field 'holdout' must be in [0, 1), got {cfg.holdout}")
-    if not 0 <= cfg.seed < 2**32:
-        raise ConfigError(f"{SOURCE}: field 'seed' must be in 0..2**32-1, got {cfg.seed}")
 
 
 def default_out(cfg: DiagnoseConfig) -> Path:

@@ -80,8 +80,8 @@ def test_diagnose_writes_records_and_the_page_and_resumes(tiny_run, tmp_path, ca
 
 @pytest.mark.parametrize("field, value, match", [
     ("method", "EBC", "field 'method': 'EBC' is not an offline planner method"),
-    ("sigma_init", (), "field 'sigma_init'"), ("episodes", (1, 1), "field 'episodes'"), ("every", 0, "field 'every'"),
-    ("seed", -1, "field 'seed'"), ("task", "stack", "field 'task'"), ("holdout", 1.0, "field 'holdout'")])  # fmt: skip
+    ("sigma_init", (), "diagnose: sigma_init"), ("episodes", (1, 1), "diagnose: episodes"), ("every", 0, "diagnose: every"),
+    ("seed", -1, "diagnose: seed"), ("task", "stack", "field 'task'"), ("holdout", 1.0, "diagnose: holdout")])  # fmt: skip
 def test_bad_fields_name_the_field(field, value, match):
     with pytest.raises(ConfigError, match=match):
         check(dataclasses.replace(DiagnoseConfig(run=Path("results/x")), **{field: value}))
