@@ -45,7 +45,7 @@ RESULTS ?= results/local
 # Where `make demos` records the scripted expert: robosuite (MuJoCo C) or mjx (vectorised, no robosuite).
 DEMO_SIM ?= robosuite
 
-.PHONY: help venv envs demos expert-success test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench-robosuite bench sweep sweep-online eval xsim video ablations prior-study report wheels gpu-check gpu-carry clean
+.PHONY: help venv envs demos expert-success diagnose test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench-robosuite bench sweep sweep-online eval xsim video ablations prior-study report wheels gpu-check gpu-carry clean
 
 help:
 	@echo "make test       - both dependency sets: the full suite on the CPU set, the current-stack suite (CI runs this)"
@@ -68,6 +68,7 @@ help:
 	@echo "make xsim CKPT=... - the same checkpoint in MJX and in robosuite side by side, Fisher exact test per cell"
 	@echo "make video      - a sweep cell's episodes re-run in MJX, drawn offscreen -> results/videos/*.mp4 (VIDEO_ARGS='--run ... --method ...')"
 	@echo "make ablations  - POIR-DRIL planner/normaliser ablations on Lift in robosuite (experiments/ablations/) -> results/ablations.md"
+	@echo "make diagnose   - planner forensics with the robosuite oracle -> results/diagnose/<run>/ (DIAGNOSE_ARGS='--run ...')"
 	@echo "make report     - results/README.md from each published run's own files (config, notes.md, tables, plots)"
 
 $(STAMP): pyproject.toml $(LOCKS)
@@ -178,6 +179,11 @@ VIDEO_ARGS ?= --run results/cpu-small --method EBC --versus POIR-DRIL --sigma-in
 
 video: $(STAMP)
 	$(PY) -m poir_mjx.cli video $(VIDEO_ARGS)
+
+# Planner forensics with the robosuite oracle on a run's cells -> results/diagnose/<run>/<task>.md (docs/diagnose.md)
+DIAGNOSE_ARGS ?= --run results/cpu-prior --sigma-init 0.02 0.3 --episodes 0 1 2 3 --every 20
+diagnose: $(STAMP)
+	$(PY) -m poir_mjx.cli diagnose $(DIAGNOSE_ARGS)
 
 # Wheels of the current set (and CUDA=cuda13 plugin) for an x86-64 Linux machine with no network:
 # copy wheels/ there, then: pip install --no-index --find-links wheels -r requirements/current.txt -r requirements/cuda13.txt

@@ -8,7 +8,6 @@ each reward would have ranked the same trajectories, in the world model (``call`
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 
 import jax
@@ -17,20 +16,7 @@ import jax.numpy as jnp
 from poir_mjx.core import ensemble as ens
 from poir_mjx.core.agent import POIR, POIRParams
 from poir_mjx.core.config import REWARDS
-
-
-def variant(agent: POIR, reward: str) -> POIR:
-    """The agent with `reward` as its planner's reward (everything else the same)."""
-    planner = dataclasses.replace(agent.config.planner, reward=reward)
-    return POIR(dataclasses.replace(agent.config, planner=planner), agent.obs_size, agent.act_size)
-
-
-def step_rewards(agent: POIR, reward: str, params: POIRParams, states: jax.Array, actions: jax.Array) -> jax.Array:
-    """Reward `reward` of each step of trajectories: states [H + 1, ..., ds] (normalised, the start state first),
-    actions [H, ..., da] (normalised) -> [H, ...], with the planner's timing (next state, or MOREL's (s_t, a_t))."""
-    v = variant(agent, reward)
-    scored = states[1:] if v.scores_next_state() else states[:-1]
-    return v.trajectory_rewards(params, scored, actions)
+from poir_mjx.core.scoring import step_rewards, variant
 
 
 def nearest_expert(states: jax.Array, expert: jax.Array, chunk: int = 4096) -> jax.Array:

@@ -7,6 +7,7 @@ import functools
 import numpy as np
 
 from poir_mjx.core.agent import POIR
+from poir_mjx.core.config import ConfigError
 from poir_mjx.envs.env import make_env, make_params
 from poir_mjx.eval import robosuite_eval
 from poir_mjx.eval.methods import Method
@@ -19,13 +20,21 @@ SIMULATORS = ("mjx", "robosuite")
 @functools.lru_cache(maxsize=None)
 def mjx_evaluator(task: str, method: Method, agent: POIR, steps: int):
     """One compiled MJX evaluator per (task, method, agent config, steps), reused across cells and runs."""
-    return make_evaluator(make_env(task), method.policy_fn(agent), steps)
+    env = make_env(task)
+    if method.oracle:
+        from poir_mjx.eval.oracle import oracle_policy
+
+        return make_evaluator(env, oracle_policy(env, agent), steps)
+    return make_evaluator(env, method.policy_fn(agent), steps)
 
 
 def run_episodes(simulator: str, task: str, method: Method, agent: POIR, params, keys, sigma_init, sigma_action,
                  steps: int, workers: int = 2, progress: bool = True) -> dict[str, np.ndarray]:  # fmt: skip
     """One episode per key (perturbations per episode); {"first_success", "diverged", "steps"} as numpy arrays."""
     if simulator == "robosuite":
+        if method.oracle:
+            raise ConfigError(f"simulator: {method.name} ranks by returns in the true simulator's own state, which "
+                              "only the MJX evaluator gives the policy; use simulator 'mjx'")  # fmt: skip
         return robosuite_eval.evaluate(task, method.policy_fn(agent), params, keys, sigma_init, sigma_action, steps,
                                        workers, progress=progress)  # fmt: skip
     if simulator != "mjx":

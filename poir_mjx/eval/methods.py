@@ -33,6 +33,7 @@ class Method:
     use_prior: bool = True
     selection: str = "top_k"  # planner.selection: "random" is the control without the reward's ranking
     online: bool = False  # fine-tune the world model on deployment data before the evaluation
+    oracle: bool = False  # rank the planner's candidates by their returns in the true simulator (eval/oracle.py; MJX)
     description: str = ""
 
     @property
@@ -87,6 +88,10 @@ METHODS: dict[str, Method] = {
         Method("POIR-prior", "poir", "ebc", description="control: POIR's BC prior alone (mean of its heads, no planning)"),
         Method("POIR-random", "poir", "plan", "dril", selection="random",
                description="control: the planner's top-k drawn uniformly among its trajectories (noise, no ranking)"),
+        *(Method(f"POIR-{r.upper()} oracle", "poir", "plan", r, oracle=True,
+                 description=f"control: the planner's candidates ranked by their true {r.upper()} returns, rolled out "
+                             "in the MJX environment itself (an upper bound on any ranking; MJX only)")
+          for r in ("l2", "dril")),  # fmt: skip
         *(Method(f"POIR-{r.upper()} online", "poir", "plan", r, online=True,
                  description=f"POIR-{r.upper()} after online world-model fine-tuning in the cell's perturbed environment")
           for r in ("l2", "dril", "morel")),  # fmt: skip

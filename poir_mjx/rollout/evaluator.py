@@ -9,14 +9,15 @@ from __future__ import annotations
 import jax
 import numpy as np
 
-from poir_mjx.rollout.episode import batched_episodes, stateless
+from poir_mjx.rollout.episode import Policy, batched_episodes, stateless
 from poir_mjx.rollout.protocol import Env
 
 
-def make_evaluator(env: Env, policy_fn, steps: int):
+def make_evaluator(env: Env, policy, steps: int):
     """jit(vmap(episode)): (agent params, keys [B], EnvParams [B]) -> per-episode outcomes
-    (first_success, diverged, steps). `policy_fn(params, obs_vector, key) -> action`."""
-    episodes = batched_episodes(env, stateless(env, policy_fn), steps)
+    (first_success, diverged, steps). `policy`: a ``Policy`` (it may read the simulator's state) or a function
+    ``policy_fn(params, obs_vector, key) -> action``."""
+    episodes = batched_episodes(env, policy if isinstance(policy, Policy) else stateless(env, policy), steps)
     return jax.jit(lambda params, keys, env_params: episodes(params, keys, env_params)[0])
 
 

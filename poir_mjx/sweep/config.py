@@ -90,6 +90,9 @@ class SweepConfig:
         for m in self.methods:
             if m not in METHODS:
                 raise ConfigError(f"methods: unknown method {m!r}; expected one of {', '.join(METHODS)}")
+            if METHODS[m].oracle and self.simulator != "mjx":
+                raise ConfigError(f"methods: {m} ranks by returns in the true simulator, which only the MJX evaluator "
+                                  f"gives the policy; field 'simulator' is {self.simulator!r}")  # fmt: skip
         base_config(self)  # the overrides, named "overrides: <dotted field>: ..."
         for name, ov in self.baseline_overrides.items():
             if name not in self.methods or not get_method(name).is_baseline:

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from poir_mjx.core.agent import POIR
+from poir_mjx.core.scoring import variant
 from poir_mjx.diagnose import probe
 from tests.helpers import SMALL, expert_data
 
@@ -40,7 +41,7 @@ def test_probe_scores_the_same_candidates_with_every_reward(trained, reward):
     agent, params, obs, _, _ = trained
     key = jax.random.PRNGKey(4)
     call = probe.call_fn(agent)(params, obs[7], key)
-    ret, _ = probe.variant(agent, reward).rollouts(params, obs[7], key)
+    ret, _ = variant(agent, reward).rollouts(params, obs[7], key)
     np.testing.assert_allclose(call[f"returns_{reward}"], ret, rtol=1e-5, atol=1e-6)
     np.testing.assert_allclose(call["plan"], agent.plan(params, obs[7], key), rtol=1e-6)
     np.testing.assert_allclose(call["ebc"], agent.ebc_action(params, obs[7]), rtol=1e-6)

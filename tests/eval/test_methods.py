@@ -12,6 +12,7 @@ BASE = dataclasses.replace(preset("cpu-small"), online=dataclasses.replace(prese
 
 def test_registry_names_and_unknown_method():
     assert set(METHODS) == {"BC", "EBC", "POIR-L2", "POIR-DRIL", "POIR-MOREL", "POIR-noprior", "POIR-prior", "POIR-random",
+                            "POIR-L2 oracle", "POIR-DRIL oracle",
                             "POIR-L2 online", "POIR-DRIL online", "POIR-MOREL online",
                             "DAC", "ValueDICE", "SQIL", "PPO+DRIL"}  # fmt: skip
     assert {n for n, m in METHODS.items() if m.is_baseline} == {"DAC", "ValueDICE", "SQIL", "PPO+DRIL"}
