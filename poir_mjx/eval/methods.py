@@ -31,7 +31,8 @@ class Method:
     act: str  # "bc", "ebc" (for a "poir" agent: its prior alone), "plan" or "learned" (a baseline's own policy)
     reward: str | None = None
     use_prior: bool = True
-    selection: str = "top_k"  # planner.selection: "random" is the control without the reward's ranking
+    selection: str | None = None  # planner.selection: "random" is the control without the reward's ranking; None: the
+    # config's (top_k by default, or an option such as head_balanced set for the whole run)
     online: bool = False  # fine-tune the world model on deployment data before the evaluation
     oracle: bool = False  # rank the planner's candidates by their returns in the true simulator (eval/oracle.py; MJX)
     description: str = ""
@@ -54,7 +55,8 @@ class Method:
             return dataclasses.replace(base, normalize=False)
         planner = base.planner
         if self.reward is not None:
-            planner = dataclasses.replace(planner, reward=self.reward, use_prior=self.use_prior, selection=self.selection)
+            planner = dataclasses.replace(planner, reward=self.reward, use_prior=self.use_prior,
+                                          selection=self.selection or planner.selection)  # fmt: skip
         return dataclasses.replace(base, normalize=True, planner=planner)
 
     def training_config(self, base: POIRConfig) -> POIRConfig:

@@ -101,3 +101,14 @@ def test_dril_in_action_units_measures_the_heads_in_robosuites_units(trained):
     want = -np.max(np.linalg.norm(heads[:, None] - heads[None], axis=-1), axis=(0, 1))
     np.testing.assert_allclose(a._dril(params, s), want, rtol=1e-5)
     assert not np.allclose(agent._dril(params, s), want)  # the normalised default measures another distance
+
+
+def test_a_runs_selection_option_reaches_the_ranked_methods_and_not_the_random_control():
+    from poir_mjx.core.config import apply_overrides, preset
+    from poir_mjx.eval.methods import get_method
+
+    base = apply_overrides(preset("cpu-small"), {"planner.selection": "head_balanced", "planner.scoring": "head_centred"})
+    assert get_method("POIR-DRIL").agent_config(base).planner.selection == "head_balanced"
+    assert get_method("POIR-L2").agent_config(base).planner.scoring == "head_centred"
+    assert get_method("POIR-random").agent_config(base).planner.selection == "random"
+    assert get_method("POIR-DRIL").agent_config(preset("cpu-small")).planner.selection == "top_k"
