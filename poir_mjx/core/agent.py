@@ -76,6 +76,11 @@ class POIR:
     def __hash__(self):
         return hash((self.config, self.obs_size, self.act_size))
 
+    def __post_init__(self):
+        bad = [d for d in self.config.planner.l2_dims if d >= self.obs_size]
+        if bad:
+            raise ConfigError(f"planner.l2_dims: {bad[0]} is not a dimension of the {self.obs_size}-wide observation")
+
     # ------------------------------------------------------------------ training
     def fit(
         self,
@@ -236,8 +241,11 @@ class POIR:
         """r_IL(s, a) for states/actions laid out [K, M, .] (normalised) -> [K, M]."""
         pc = self.config.planner
         if pc.reward == "l2":
-            flat = s.reshape(-1, s.shape[-1])
-            return rewards.l2_reward(flat, params.expert_states, pc.l2_chunk).reshape(s.shape[:-1])
+            flat, expert = s.reshape(-1, s.shape[-1]), params.expert_states
+            if pc.l2_dims:  # the chosen observation dimensions only
+                dims = jnp.asarray(pc.l2_dims)
+                flat, expert = flat[:, dims], expert[:, dims]
+            return rewards.l2_reward(flat, expert, pc.l2_chunk).reshape(s.shape[:-1])
         if pc.reward == "dril":
             r, level = self._dril(params, s), params.dril_level
         else:

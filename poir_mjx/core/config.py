@@ -87,6 +87,10 @@ class PlannerConfig:
     gripper_flip_prob, so the ranking can choose between opening and closing)."""
     gripper_flip_prob: float = 0.1
     """With gripper_noise "flip": the probability that a candidate's gripper command is the prior's reversed."""
+    l2_dims: tuple[int, ...] = ()
+    """The observation dimensions the L2 reward measures (indices into the policy's observation vector); empty:
+    all. E.g. Lift without the two quaternions (robomimic's low-dim layout): 0 1 2 7 8 9 10 11 12 16 17 18.
+    The nearest expert state is searched in those dimensions only."""
     dril_units: Literal["normalized", "action"] = "normalized"
     """The space DRIL measures the BC heads' disagreement in: "normalized" (the planner's normalised actions:
     each dimension divided by the expert's std, so a rotation dimension with std 0.012 weighs 80 times a
@@ -98,11 +102,12 @@ class PlannerConfig:
     disagreement_quantile: float = 0.98
     """The quantile of the expert data's own disagreement that "excess" subtracts (DRIL paper: 0.98)."""
 
-    ZERO_OK = ("l2_approx_size", "head_chunk", "scoring_lambda")
+    ZERO_OK = ("l2_approx_size", "head_chunk", "scoring_lambda", "l2_dims")
+    EMPTY_OK = ("l2_dims",)
     UNIT = ("gripper_flip_prob",)
     # Fields added after cells were first recorded: left out of the config's hash while at their default, so the
     # cells and checkpoints recorded before them keep their hashes (poir_mjx/sweep/config.config_dict).
-    HASH_AT_DEFAULT_OMITS = ("scoring", "scoring_lambda", "gripper_noise", "gripper_flip_prob", "dril_units")
+    HASH_AT_DEFAULT_OMITS = ("scoring", "scoring_lambda", "gripper_noise", "gripper_flip_prob", "dril_units", "l2_dims")
 
     def cross_check(self, prefix: str) -> None:
         if self.dril_units != "normalized" and self.disagreement == "excess":

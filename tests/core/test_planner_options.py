@@ -112,3 +112,17 @@ def test_a_runs_selection_option_reaches_the_ranked_methods_and_not_the_random_c
     assert get_method("POIR-L2").agent_config(base).planner.scoring == "head_centred"
     assert get_method("POIR-random").agent_config(base).planner.selection == "random"
     assert get_method("POIR-DRIL").agent_config(preset("cpu-small")).planner.selection == "top_k"
+
+
+def test_l2_over_chosen_dimensions_ignores_the_others(trained):
+    from poir_mjx.core.config import ConfigError
+
+    agent, params, obs = trained
+    a = _with(agent, reward="l2", l2_dims=(0,))
+    s = agent.normalize_obs(params, obs[:6]) + jnp.array([0.0, 30.0])  # far off in the second dimension only
+    e = np.asarray(params.expert_states)
+    want = -np.min(np.abs(np.asarray(s)[:, None, 0] - e[None, :, 0]), axis=1)
+    np.testing.assert_allclose(a.trajectory_rewards(params, s, None), want, rtol=1e-5, atol=1e-6)
+    assert np.all(np.asarray(_with(agent, reward="l2").trajectory_rewards(params, s, None)) < want - 1.0)
+    with pytest.raises(ConfigError, match="planner.l2_dims: 2 is not a dimension of the 2-wide observation"):
+        _with(agent, l2_dims=(0, 2))
