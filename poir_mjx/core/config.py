@@ -89,7 +89,7 @@ class PlannerConfig:
     """With gripper_noise "flip": the probability that a candidate's gripper command is the prior's reversed."""
     l2_dims: tuple[int, ...] = ()
     """The observation dimensions the L2 reward measures (indices into the policy's observation vector); empty:
-    all. E.g. Lift without the two quaternions (robomimic's low-dim layout): 0 1 2 7 8 9 10 11 12 16 17 18.
+    all. E.g. Lift without the two quaternions (robomimic's low-dim layout): 0 1 2 7 8 9 10 11 16 17 18.
     The nearest expert state is searched in those dimensions only."""
     dril_units: Literal["normalized", "action"] = "normalized"
     """The space DRIL measures the BC heads' disagreement in: "normalized" (the planner's normalised actions:
