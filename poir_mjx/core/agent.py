@@ -27,6 +27,7 @@ from flax import struct
 
 from poir_mjx.core import ensemble as ens
 from poir_mjx.core import rewards
+from poir_mjx.core import candidates
 from poir_mjx.core import selection as sel
 from poir_mjx.core.config import ConfigError, POIRConfig
 from poir_mjx.core.selection import top_k_mean  # noqa: F401  (the planner's top-k, re-exported)
@@ -285,7 +286,8 @@ class POIR:
                 prior = self._bc_each(params, s)
                 a = prior + pc.sigma * jax.random.normal(kt, prior.shape, jnp.float32)
                 if pc.gripper_noise == "flip":
-                    a = self._flip_gripper(params, prior, a, jax.random.fold_in(kt, 1))
+                    a = candidates.flip_gripper(params.act_norm, prior, a, jax.random.fold_in(kt, 1),
+                                                pc.gripper_flip_prob)  # fmt: skip
             else:
                 a = jax.random.uniform(kt, (k, m, self.act_size), jnp.float32, minval=lo, maxval=hi)
             a = jnp.clip(a, lo, hi)
@@ -298,35 +300,11 @@ class POIR:
         (_, ret, first), steps = jax.lax.scan(body, init, (jnp.arange(pc.horizon), keys))
         real = sel.real_mask(k, m, pc.num_trajectories)
         if all_models:
-            ret = self._all_models_score(params, s0, steps[0] if record else steps)
+            ret = candidates.all_models_score(self, params, s0, steps[0] if record else steps)
         ret = jnp.where(real, ret, -jnp.inf)
         if pc.scoring == "head_centred":
             ret = sel.head_centred(ret, real)
         return ret, first, steps
-
-    def _all_models_score(self, params: POIRParams, s0: jax.Array, actions: jax.Array) -> jax.Array:
-        """scoring "all_models": each trajectory's actions [H, K, M, da] rolled open-loop from s0 [K, M, ds] through
-        every world model; the mean of the K models' returns minus scoring_lambda times their std, [K, M]."""
-        pc = self.config.planner
-        kw = self.config.ensemble_size
-        score_next = self.scores_next_state()
-
-        def body(s, a):  # s [Kw, K, M, ds]: model w's prediction of every trajectory
-            a = jnp.broadcast_to(a, (kw, *a.shape))
-            s_next = self._clip(s + ens.apply_each(self.wm_module, params.wm, jnp.concatenate([s, a], -1)))
-            return s_next, self.trajectory_rewards(params, s_next if score_next else s, a)
-
-        _, r = jax.lax.scan(body, jnp.broadcast_to(s0, (kw, *s0.shape)), actions)
-        ret = r.sum(0)  # [Kw, K, M]
-        return ret.mean(0) - pc.scoring_lambda * ret.std(0)
-
-    def _flip_gripper(self, params: POIRParams, prior: jax.Array, a: jax.Array, key: jax.Array) -> jax.Array:
-        """gripper_noise "flip": the candidates' gripper command (normalised a) set to a full command with the prior's
-        sign, reversed with probability gripper_flip_prob (robosuite acts on the gripper command's sign only)."""
-        sign = jnp.where(params.act_norm.inverse(prior)[..., -1] >= 0, 1.0, -1.0)
-        flip = jax.random.bernoulli(key, self.config.planner.gripper_flip_prob, sign.shape)
-        env = params.act_norm.inverse(a).at[..., -1].set(jnp.where(flip, -sign, sign))
-        return params.act_norm(env)
 
     def real_trajectories(self, ret: jax.Array, first: jax.Array) -> tuple[jax.Array, jax.Array]:
         """The N real trajectories of a [K, M] layout, in the order n = 0..N-1 (padding cells dropped):
