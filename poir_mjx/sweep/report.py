@@ -125,7 +125,7 @@ def _task_table(cfg: SweepConfig, task: str, table: dict) -> tuple[str, str]:
 def _ranks(name: str) -> bool:
     """A method whose planner ranks its trajectories by a reward (what POIR-random leaves out)."""
     m = get_method(name)
-    return m.act == "plan" and m.selection == "top_k" and m.use_prior
+    return m.act == "plan" and m.selection != "random" and m.use_prior
 
 
 def _versus_table(cfg: SweepConfig, table: dict, cols: list, reference: str = "EBC", which=lambda m: True) -> str:
