@@ -32,7 +32,8 @@ def summarize(recs: list[dict], task: str) -> dict:
                "N": first["num_trajectories"], "top_k": first["top_k"], "oracle": first["oracle"],
                "plan_ebc_distance": _mean(c["plan_ebc_distance"] for c in calls),
                "gripper_sign_differs_from_ebc": _mean(c["gripper"]["sign_differs_from_ebc"] for c in calls),
-               "gripper_at_bound": _mean(c["gripper"]["at_bound"] for c in calls)}  # fmt: skip
+               "gripper_at_bound": _mean(c["gripper"]["at_bound"] for c in calls),
+               "provenance": first.get("provenance")}  # fmt: skip
     for r in REWARDS:
         x = [c[r] for c in calls]
         s[r] = {"between_head_share": _mean(v["between_head_share"] for v in x),
@@ -84,6 +85,11 @@ def render(task: str, summary: dict) -> str:
     if not summary:
         return "\n".join(lines + ["No diagnosed cells yet.", ""])
     cols = list(summary)
+    prov = [s.get("provenance") for s in summary.values() if s.get("provenance")]
+    if prov:
+        p = prov[0]
+        lines += [f"Simulator: {p['simulator']}; machine: {p['machine']}; demos: {p['demos'].get('source')} "
+                  f"(sha256 {p['demos'].get('sha256')}); command: `{p['command']}`.", ""]  # fmt: skip
     lines += ["## Cells", "", _table(["", *cols], [
         ["episodes (successes)", *[f"{s['episodes']} ({s['successes']})" for s in summary.values()]],
         ["planner calls", *[str(s["calls"]) for s in summary.values()]],

@@ -14,6 +14,7 @@ import numpy as np
 from poir_mjx.atomic import atomic_write_text
 from poir_mjx.core.config import ConfigError
 from poir_mjx.diagnose.config import SOURCE, DiagnoseConfig, check, default_out
+from poir_mjx.versions import command_line, machine_line, simulator_line, stack
 
 
 def run(cfg: DiagnoseConfig) -> int:
@@ -33,7 +34,7 @@ def run(cfg: DiagnoseConfig) -> int:
     out = Path(cfg.out) if cfg.out is not None else default_out(cfg)
     agent, params, _ = load_run_agent(cfg.run, cfg.task, cfg.method, cfg.seed, cfg.data, cfg.checkpoints, cfg.progress)
     steps = cfg.steps or run_cfg.max_steps
-    demo_error = _demo_error(cfg, run_cfg, agent, params)
+    demo_error, demos = _demo_error(cfg, run_cfg, agent, params)
     for j in cells:
         for e in cfg.episodes:
             path = episode_path(out, cfg, _grid(run_cfg)[j][0], e)
@@ -41,6 +42,8 @@ def run(cfg: DiagnoseConfig) -> int:
                 continue
             rec = diagnose_episode(cfg, run_cfg, agent, params, j, e, steps)
             rec["demos"] = demo_error
+            rec["provenance"] = {"demos": demos, "command": command_line(), "simulator": simulator_line("robosuite"),
+                                 "machine": machine_line(), "stack": stack()}  # fmt: skip
             atomic_write_text(path, json.dumps(rec) + "\n")
             print(f"wrote {path}", file=sys.stderr)
     page = write_page(out, cfg.task)
@@ -122,13 +125,14 @@ def diagnose_episode(cfg: DiagnoseConfig, run_cfg, agent, params, j: int, episod
             "episode_one_step_sq_error": ep_err, "calls": calls}  # fmt: skip
 
 
-def _demo_error(cfg: DiagnoseConfig, run_cfg, agent, params) -> dict[str, list[float]]:
+def _demo_error(cfg: DiagnoseConfig, run_cfg, agent, params) -> tuple[dict[str, list[float]], dict]:
     """On the expert demos the world model was trained on (4096 transitions drawn at random), per normalised
-    dimension: its one-step squared error ("error") and the expert's own squared one-step change ("change")."""
+    dimension: its one-step squared error ("error") and the expert's own squared one-step change ("change"); and
+    the demos' provenance (source, generator, content digest)."""
     from poir_mjx.diagnose import probe
     from poir_mjx.sweep.artifacts import demos_for
 
-    tr, _ = demos_for(run_cfg, cfg.task, cfg.data, progress=cfg.progress)
+    tr, provenance = demos_for(run_cfg, cfg.task, cfg.data, progress=cfg.progress)
     err = probe.one_step_error_fn(agent)
     rows = np.random.default_rng(0).choice(len(tr.obs), min(len(tr.obs), 4096), replace=False)
     change = (agent.normalize_obs(params, tr.next_obs[rows]) - agent.normalize_obs(params, tr.obs[rows])) ** 2
@@ -136,7 +140,7 @@ def _demo_error(cfg: DiagnoseConfig, run_cfg, agent, params) -> dict[str, list[f
            "change": np.asarray(change.mean(0)).tolist()}
     if cfg.holdout > 0:
         out.update(_holdout_error(cfg, agent, params, tr))
-    return out
+    return out, provenance
 
 
 def _holdout_error(cfg: DiagnoseConfig, agent, params, tr) -> dict[str, list[float]]:
