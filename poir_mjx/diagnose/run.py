@@ -32,6 +32,7 @@ def run(cfg: DiagnoseConfig) -> int:
         raise ConfigError(f"{SOURCE}: field 'episodes': {max(cfg.episodes)} is not an episode of the cells "
                           f"(field 'episodes' of {src} is {run_cfg.episodes})")  # fmt: skip
     out = Path(cfg.out) if cfg.out is not None else default_out(cfg)
+    _mark(out, cfg)
     agent, params, _ = load_run_agent(cfg.run, cfg.task, cfg.method, cfg.seed, cfg.data, cfg.checkpoints, cfg.progress)
     steps = cfg.steps or run_cfg.max_steps
     demo_error, demos = _demo_error(cfg, run_cfg, agent, params)
@@ -49,6 +50,14 @@ def run(cfg: DiagnoseConfig) -> int:
     page = write_page(out, cfg.task)
     print(f"wrote {page}")
     return 0
+
+
+def _mark(out: Path, cfg: DiagnoseConfig) -> None:
+    """<out>/config.json (once): which run the folder diagnoses. Committed, it makes the folder a published one, which
+    no command writes again (poir_mjx/outputs.py): a new diagnosis of the same run goes to another --out."""
+    marker = out / "config.json"
+    if not marker.exists():
+        atomic_write_text(marker, json.dumps({"diagnose": str(cfg.run)}) + "\n")  # each record names its command
 
 
 def episode_path(out: Path, cfg: DiagnoseConfig, si: float, episode: int) -> Path:

@@ -73,6 +73,7 @@ def test_diagnose_writes_records_and_the_page_and_resumes(tiny_run, tmp_path, ca
     page = (out / "lift.md").read_text()
     assert "POIR-DRIL si=0.3_seed=0" in page and "Spearman" in page and "eef_quat" in page and "held_out: cube_pos" in page
     assert rec["provenance"]["demos"]["source"] == "file" and "Simulator: robosuite" in page
+    assert json.loads((out / "config.json").read_text())["diagnose"] == str(tiny_run / "tiny")  # committed: read-only
     assert (out / "lift-shares.png").stat().st_size > 1000
     before = path.stat().st_mtime_ns
     assert run(cfg) == 0  # the finished episode is reused, the page rewritten
