@@ -117,6 +117,7 @@ def test_tiny_sweep_on_the_object_observation_in_robosuite(tmp_path, capsys):
     assert rec["episodes"] == 1 and rec["successes"] == 0 and rec["mean_episode_length"] == 3
     assert rec["config_hash"] == cell_hash(cfg, "lift", "EBC", rec["data"]["sha256"])
     assert json.loads((out / "config.json").read_text())["observation"] == "object"
+    assert "Observation: object (robosuite's object-state vector alone)." in (out / "lift.md").read_text()
     agent, _, _ = load_run_agent(out, "lift", "EBC", 0, ckpt_dir=tmp_path / "ckpt", progress=False)
     assert agent.obs_size == 10
     ckpt = next((tmp_path / "ckpt" / "lift").glob("policy-seed0-*.ckpt"))
