@@ -39,7 +39,7 @@ def table(opts: options.Eval) -> list[str]:
     from poir_mjx.core import checkpoint
     from poir_mjx.core.agent import POIR
     from poir_mjx.core.config import apply_overrides
-    from poir_mjx.envs.layout import obs_groups
+    from poir_mjx.envs.layout import OBS_KEYS, obs_groups, observation_named
     from poir_mjx.eval.episodes import SIMULATORS, agreement_p_value, run_episodes
     from poir_mjx.rollout.evaluator import episode_keys
     from poir_mjx.eval.methods import UnknownMethodError, get_method
@@ -59,8 +59,13 @@ def table(opts: options.Eval) -> list[str]:
         raise checkpoint.CheckpointError(
             f"{opts.ckpt}: method {method.name} needs a '{method.agent_kind}' checkpoint, this one is '{kind}'"
         )
-    if layout.get("obs_size") != len(obs_groups(task)):
-        raise checkpoint.CheckpointError(f"{opts.ckpt}: layout field 'obs_size' does not match task {task}")
+    observation = observation_named(layout.get("obs_keys", OBS_KEYS))  # what the agent was trained to see
+    if observation is None:
+        raise checkpoint.CheckpointError(f"{opts.ckpt}: layout field 'obs_keys' {layout.get('obs_keys')!r} is not an "
+                                         "observation this version can build (low_dim or object)")  # fmt: skip
+    if layout.get("obs_size") != len(obs_groups(task, observation=observation)):
+        raise checkpoint.CheckpointError(f"{opts.ckpt}: layout field 'obs_size' does not match task {task}'s "
+                                         f"{observation} observation")  # fmt: skip
     flags = dotted(opts.planner, "planner.")
     config = agent.config
     if flags:
@@ -75,7 +80,8 @@ def table(opts: options.Eval) -> list[str]:
     keys = episode_keys(opts.seed, len(si))
     sims = list(SIMULATORS) if opts.simulator == "both" else [opts.simulator]
     steps, workers = opts.max_steps, opts.workers
-    res = {sim: run_episodes(sim, task, method, agent, params, keys, si, sa, steps, workers) for sim in sims}
+    res = {sim: run_episodes(sim, task, method, agent, params, keys, si, sa, steps, workers, True, observation)
+           for sim in sims}  # fmt: skip
     data = layout.get("demos", {})
     planner = "".join(f"; {k}={v}" for k, v in flags.items())
     lines = [f"{task}, {method.name}, checkpoint {opts.ckpt}{planner}; expert data: {data.get('source', '?')} "

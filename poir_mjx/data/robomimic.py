@@ -34,9 +34,10 @@ LOW_DIM_KEYS = OBS_KEYS
 ENV_NAMES = ROBOSUITE_ENV
 
 
-def robosuite_obs(o: dict) -> dict[str, np.ndarray]:
-    """robomimic's low-dim keys (float32) from a robosuite observation dict ("object" is its "object-state")."""
-    return {k: np.asarray(o["object-state" if k == "object" else k], np.float32) for k in LOW_DIM_KEYS}
+def robosuite_obs(o: dict, keys=LOW_DIM_KEYS) -> dict[str, np.ndarray]:
+    """robomimic's low-dim keys (float32; `keys` of them, in that order) from a robosuite observation dict ("object" is
+    its "object-state")."""
+    return {k: np.asarray(o["object-state" if k == "object" else k], np.float32) for k in keys}
 
 
 class DatasetError(ValueError):

@@ -27,6 +27,9 @@ def run(cfg: DiagnoseConfig) -> int:
     if not src.is_file():
         raise ConfigError(f"{src}: no such file; expected a sweep run folder (results/<name>/)")
     run_cfg = load_sweep_config(src, recorded=True)
+    if run_cfg.observation != "low_dim":  # its names, groups and robosuite episodes are the low-dim set's
+        raise ConfigError(f"{src}: field 'observation' is {run_cfg.observation!r}; diagnose takes runs on the "
+                          "low_dim observation only")  # fmt: skip
     cells = [_cell_index(run_cfg, src, si) for si in cfg.sigma_init]
     if max(cfg.episodes) >= run_cfg.episodes:
         raise ConfigError(f"{SOURCE}: field 'episodes': {max(cfg.episodes)} is not an episode of the cells "

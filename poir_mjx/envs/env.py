@@ -25,7 +25,7 @@ from mujoco import mjx
 from poir_mjx.compat import x64_enabled
 from poir_mjx.envs import osc
 from poir_mjx.envs import observation
-from poir_mjx.envs.layout import ACTION_SIZE, OBS_KEYS, obs_sizes
+from poir_mjx.envs.layout import ACTION_SIZE, OBS_KEYS, obs_sizes, observation_keys
 from poir_mjx.envs.model import ModelFileError, load_model, load_variants, model_indices
 from poir_mjx.envs.observation import flatten_obs
 from poir_mjx.envs.placement import sample_object_pose
@@ -80,6 +80,7 @@ class TaskEnv:
     model: mjx.Model
     meta: dict
     variants: ModelVariants | None = None  # per-episode object sizes (Lift), variant 0 = `model`
+    observation: str = "low_dim"  # what obs_vector gives the policy: "low_dim" or "object" (layout.OBSERVATIONS)
 
     def model_for(self, variant) -> mjx.Model:
         """The episode's model: `model`, or its object-size variant (``info["variant"]``)."""
@@ -97,6 +98,11 @@ class TaskEnv:
     @property
     def obs_sizes(self) -> dict[str, int]:
         return obs_sizes(self.meta)
+
+    @property
+    def obs_size(self) -> int:
+        """The size of the policy's vector (``obs_vector``)."""
+        return sum(self.obs_sizes[k] for k in observation_keys(self.observation))
 
     @property
     def horizon(self) -> int:
@@ -136,8 +142,8 @@ class TaskEnv:
         return State(data=d, obs=self.observe(d), done=jnp.zeros((), bool), success=success, info=info)
 
     def obs_vector(self, state: State) -> jax.Array:
-        """The policy's input: robomimic's low-dim keys concatenated (``flatten_obs``)."""
-        return flatten_obs(state.obs)
+        """The policy's input: the observation's keys concatenated (``flatten_obs``); ``state.obs`` keeps every key."""
+        return flatten_obs(state.obs, observation_keys(self.observation))
 
     def reset(self, rng: jax.Array, params: EnvParams) -> State:
         variant = 0
@@ -236,13 +242,21 @@ class TaskEnv:
         )
 
 
-def make_env(task: str, envs_dir: str | None = None) -> TaskEnv:
-    """The MJX environment for `task` (one of poir_mjx.envs.tasks.TASKS), in the current float precision.
+def make_env(task: str, envs_dir: str | None = None, observation: str = "low_dim") -> TaskEnv:
+    """The MJX environment for `task` (one of poir_mjx.envs.tasks.TASKS), in the current float precision, its
+    policy vector the `observation`'s keys ("low_dim": robomimic's low-dim set; "object": the object-state alone).
 
     The MJX model's arrays take jax's default float (float64 inside ``compat.enable_x64()``), so one
-    environment is kept per task and precision.
+    environment is kept per task and precision; the observations share its model.
     """
-    return _make_env(task, envs_dir, x64_enabled())
+    observation_keys(observation)  # an unknown observation: one ValueError naming it
+    env = _make_env(task, envs_dir, x64_enabled())
+    return env if observation == "low_dim" else _observed(env, observation)
+
+
+@functools.lru_cache(maxsize=None)
+def _observed(env: TaskEnv, observation: str) -> TaskEnv:
+    return dataclasses.replace(env, observation=observation)
 
 
 @functools.lru_cache(maxsize=None)

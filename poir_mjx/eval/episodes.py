@@ -18,9 +18,9 @@ SIMULATORS = ("mjx", "robosuite")
 
 
 @functools.lru_cache(maxsize=None)
-def mjx_evaluator(task: str, method: Method, agent: POIR, steps: int):
-    """One compiled MJX evaluator per (task, method, agent config, steps), reused across cells and runs."""
-    env = make_env(task)
+def mjx_evaluator(task: str, method: Method, agent: POIR, steps: int, observation: str = "low_dim"):
+    """One compiled MJX evaluator per (task, method, agent config, steps, observation), reused across cells and runs."""
+    env = make_env(task, observation=observation)
     if method.oracle:
         from poir_mjx.eval.oracle import oracle_policy
 
@@ -29,17 +29,20 @@ def mjx_evaluator(task: str, method: Method, agent: POIR, steps: int):
 
 
 def run_episodes(simulator: str, task: str, method: Method, agent: POIR, params, keys, sigma_init, sigma_action,
-                 steps: int, workers: int = 2, progress: bool = True) -> dict[str, np.ndarray]:  # fmt: skip
-    """One episode per key (perturbations per episode); {"first_success", "diverged", "steps"} as numpy arrays."""
+                 steps: int, workers: int = 2, progress: bool = True,
+                 observation: str = "low_dim") -> dict[str, np.ndarray]:  # fmt: skip
+    """One episode per key (perturbations per episode), the agent seeing `observation` ("low_dim" or "object");
+    {"first_success", "diverged", "steps"} as numpy arrays."""
     if simulator == "robosuite":
         if method.oracle:
             raise ConfigError(f"simulator: {method.name} ranks by returns in the true simulator's own state, which "
                               "only the MJX evaluator gives the policy; use simulator 'mjx'")  # fmt: skip
         return robosuite_eval.evaluate(task, method.policy_fn(agent), params, keys, sigma_init, sigma_action, steps,
-                                       workers, progress=progress)  # fmt: skip
+                                       workers, progress=progress, observation=observation)  # fmt: skip
     if simulator != "mjx":
         raise ValueError(f"simulator: {simulator!r} is not one of {SIMULATORS}")
-    return run_batch(mjx_evaluator(task, method, agent, steps), params, keys, make_params(sigma_init, sigma_action))
+    evaluator = mjx_evaluator(task, method, agent, steps, observation)
+    return run_batch(evaluator, params, keys, make_params(sigma_init, sigma_action))
 
 
 def agreement_p_value(k1: int, n1: int, k2: int, n2: int) -> float:

@@ -38,28 +38,30 @@ def episode_streams(keys: jax.Array, steps: int):
 
 def evaluate(task: str, policy_fn, params, keys: jax.Array, sigma_init, sigma_action, steps: int,
              workers: int = 2, envs_per_worker: int = 16, progress: bool = True,
-             overlap: bool | None = None) -> dict[str, np.ndarray]:  # fmt: skip
+             overlap: bool | None = None, observation: str = "low_dim") -> dict[str, np.ndarray]:  # fmt: skip
     """Run len(keys) episodes of `steps` control steps in robosuite; the results of ``rollout.sharding.run_batch``.
 
-    keys: one PRNG key per episode (raw uint32 [B, 2]); sigma_init / sigma_action: [B].
+    keys: one PRNG key per episode (raw uint32 [B, 2]); sigma_init / sigma_action: [B]; observation: what the
+    policy sees ("low_dim" or "object", ``envs/layout.OBSERVATIONS``).
     first_success counts control steps from 1, as the MJX environment does (-1: never).
     """
     return run(task, policy_fn, params, keys, sigma_init, sigma_action, steps, workers, envs_per_worker,
-               record=False, overlap=overlap, progress=progress)[0]  # fmt: skip
+               record=False, overlap=overlap, progress=progress, observation=observation)[0]  # fmt: skip
 
 
 def collect(task: str, policy_fn, params, keys: jax.Array, sigma_init, sigma_action, steps: int,
-            workers: int = 2, envs_per_worker: int = 16, progress: bool = False, overlap: bool | None = None):  # fmt: skip
+            workers: int = 2, envs_per_worker: int = 16, progress: bool = False, overlap: bool | None = None,
+            observation: str = "low_dim"):  # fmt: skip
     """Episodes as ``evaluate`` runs them, with their transitions: (outcome, (obs, action, next_obs, valid)),
     each [B, steps, ...] as the MJX collector (``online/loop.make_collector``) returns them. The action is
     the policy's (before the environment's action noise); valid is False from the step after an
     episode's success on, on its diverging step and after it."""
     return run(task, policy_fn, params, keys, sigma_init, sigma_action, steps, workers, envs_per_worker,
-               record=True, overlap=overlap, progress=progress)  # fmt: skip
+               record=True, overlap=overlap, progress=progress, observation=observation)  # fmt: skip
 
 
 def run(task, policy_fn, params, keys, sigma_init, sigma_action, steps, workers, envs_per_worker, *,
-        record: bool, overlap: bool, progress: bool):  # fmt: skip
+        record: bool, overlap: bool, progress: bool, observation: str = "low_dim"):  # fmt: skip
     from tqdm import tqdm
 
     keys = jnp.asarray(keys)
@@ -75,7 +77,7 @@ def run(task, policy_fn, params, keys, sigma_init, sigma_action, steps, workers,
     out = _Episodes(n, steps, record)
     act = batched_policy(policy_fn)
     bar = tqdm(total=n, desc=f"robosuite {task}", unit="ep", disable=not progress)
-    with RobosuitePool(task, workers, envs_per_worker) as pool:
+    with RobosuitePool(task, workers, envs_per_worker, observation) as pool:
         groups = pool.groups(2 if overlap else 1)
         for start in range(0, n, pool.size):
             idx = np.arange(start, min(start + pool.size, n))

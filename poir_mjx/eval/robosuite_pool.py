@@ -13,19 +13,21 @@ import sys
 
 import numpy as np
 
+from poir_mjx.envs.layout import observation_keys
 from poir_mjx.optional import require_robosuite
 
 
 class RobosuitePool:
     """`workers` processes (``python -m poir_mjx.eval.robosuite_worker``) with `envs_per_worker` robosuite
-    environments each; a context manager. Plain subprocesses rather than multiprocessing: nothing of the
-    calling program (jax's threads, an unguarded __main__) is copied. Environment slot i lives in worker
-    i // envs_per_worker."""
+    environments each, answering with the policy's `observation` ("low_dim" or "object"); a context manager. Plain
+    subprocesses rather than multiprocessing: nothing of the calling program (jax's threads, an unguarded __main__) is
+    copied. Environment slot i lives in worker i // envs_per_worker."""
 
-    def __init__(self, task: str, workers: int, envs_per_worker: int):
+    def __init__(self, task: str, workers: int, envs_per_worker: int, observation: str = "low_dim"):
         require_robosuite("evaluating in robosuite (simulator: robosuite)")
+        observation_keys(observation)  # an unknown observation fails here, not in every worker
         self.size, self.per = workers * envs_per_worker, envs_per_worker
-        cmd = [sys.executable, "-m", "poir_mjx.eval.robosuite_worker", task, str(envs_per_worker)]
+        cmd = [sys.executable, "-m", "poir_mjx.eval.robosuite_worker", task, str(envs_per_worker), observation]
         env = {**os.environ, "JAX_PLATFORMS": "cpu", "OMP_NUM_THREADS": "1"}
         self.procs = [subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env) for _ in range(workers)]
 

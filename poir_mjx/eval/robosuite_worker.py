@@ -1,4 +1,5 @@
-"""A robosuite worker process for ``eval/robosuite_eval.py``: ``python -m poir_mjx.eval.robosuite_worker TASK N``.
+"""A robosuite worker process for ``eval/robosuite_eval.py``: ``python -m poir_mjx.eval.robosuite_worker TASK N
+[OBSERVATION]`` (the policy's observation, ``envs/layout.OBSERVATIONS``: "low_dim" unless given).
 
 Reads pickled messages on stdin and answers each on stdout (robosuite's own prints go to stderr).
 """
@@ -12,14 +13,16 @@ import sys
 import numpy as np
 
 from poir_mjx.data.robomimic import robosuite_obs
+from poir_mjx.envs.layout import observation_keys
 
 
-def flat_obs(o) -> np.ndarray:
-    """The policy's observation vector (robomimic's low-dim keys, float32) from a robosuite observation dict."""
-    return np.concatenate(list(robosuite_obs(o).values()))
+def flat_obs(o, observation: str = "low_dim") -> np.ndarray:
+    """The policy's observation vector (float32: robomimic's low-dim keys, or the object-state alone for "object")
+    from a robosuite observation dict."""
+    return np.concatenate(list(robosuite_obs(o, observation_keys(observation)).values()))
 
 
-def start_episode(task: str, seed: int, sigma_init: float):
+def start_episode(task: str, seed: int, sigma_init: float, observation: str = "low_dim"):
     """A fresh robosuite environment for one episode, as every evaluation starts it: (env, action-noise generator,
     first observation vector). Built with the episode's seed and arm noise: robosuite rebuilds its model at every
     reset anyway (hard reset), and only construction seeds all of its draws (arm noise, object placement, Lift's
@@ -28,10 +31,10 @@ def start_episode(task: str, seed: int, sigma_init: float):
 
     env = make_robosuite(task, seed=int(seed), initialization_noise={"magnitude": float(sigma_init), "type": "gaussian"})
     noise = np.random.default_rng(np.random.SeedSequence(int(seed)).spawn(1)[0])
-    return env, noise, flat_obs(env.reset())
+    return env, noise, flat_obs(env.reset(), observation)
 
 
-def serve(recv, send, task: str, n_envs: int) -> None:
+def serve(recv, send, task: str, n_envs: int, observation: str = "low_dim") -> None:
     """A process holding `n_envs` robosuite environments; answers reset/step messages until "close".
 
     Every reply is (obs [n_envs, d], success [n_envs], diverged [n_envs]); an environment that is
@@ -53,7 +56,7 @@ def serve(recv, send, task: str, n_envs: int) -> None:
             for j, (seed, si, sa) in enumerate(msg[1]):
                 if envs[j] is not None:
                     envs[j].close()
-                envs[j], noise[j], last[j] = start_episode(task, seed, si)
+                envs[j], noise[j], last[j] = start_episode(task, seed, si, observation)
                 sig_a[j], alive[j] = float(sa), True
                 success[j] = bool(envs[j]._check_success())
         else:  # ("step", actions [n_envs, 7], stop [n_envs]): end the flagged episodes, step the others
@@ -68,7 +71,7 @@ def serve(recv, send, task: str, n_envs: int) -> None:
                 except Exception:  # MuJoCo's instability errors: the episode diverged
                     ok = False
                 if ok:
-                    last[j], success[j] = flat_obs(o), bool(env._check_success())
+                    last[j], success[j] = flat_obs(o, observation), bool(env._check_success())
                 else:
                     alive[j], diverged[j] = False, True
         width = next(len(x) for x in last if x is not None)
@@ -99,7 +102,8 @@ def main() -> None:
         pickle.dump(x, out)
         out.flush()
 
-    serve(lambda: pickle.load(inp), send, sys.argv[1], int(sys.argv[2]))
+    observation = sys.argv[3] if len(sys.argv) > 3 else "low_dim"
+    serve(lambda: pickle.load(inp), send, sys.argv[1], int(sys.argv[2]), observation)
 
 
 if __name__ == "__main__":

@@ -82,7 +82,8 @@ class OnlineTrainer:
     """Compiled pieces of an online run for one (env, agent, episode length); reuse it across cells.
 
     collect_in / evaluate_in: "mjx" (the compiled collector on `env`) or "robosuite" (`task` in robosuite's
-    `workers` processes, eval/robosuite_eval.py): the same episode keys, the same transitions' layout."""
+    `workers` processes, eval/robosuite_eval.py): the same episode keys, the same transitions' layout.
+    observation: what the agent sees in robosuite ("low_dim" or "object"; in MJX `env`'s own ``obs_vector``)."""
 
     env: Any
     agent: POIR
@@ -91,6 +92,7 @@ class OnlineTrainer:
     collect_in: str = "mjx"
     evaluate_in: str = "mjx"
     workers: int = 2
+    observation: str = "low_dim"
 
     @functools.cached_property
     def collector(self):
@@ -182,7 +184,8 @@ class OnlineTrainer:
 
         run = robosuite_eval.collect if record else robosuite_eval.evaluate
         res = run(self.task, self.agent.plan, params, keys, np.asarray(env_params.sigma_init),
-                  np.asarray(env_params.sigma_action), self.max_steps, self.workers, progress=False)  # fmt: skip
+                  np.asarray(env_params.sigma_action), self.max_steps, self.workers, progress=False,
+                  observation=self.observation)  # fmt: skip
         if not record:
             return res, None
         out, trans = res

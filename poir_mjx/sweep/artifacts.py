@@ -13,8 +13,8 @@ import numpy as np
 from poir_mjx.core import checkpoint
 from poir_mjx.core.agent import POIR, POIRParams
 from poir_mjx.core.config import ConfigError, POIRConfig, to_dict
-from poir_mjx.data.robomimic import LOW_DIM_KEYS, DatasetError, Transitions, read_transitions
-from poir_mjx.envs.layout import obs_groups
+from poir_mjx.data.robomimic import DatasetError, Transitions, read_transitions
+from poir_mjx.envs.layout import obs_groups, observation_keys
 from poir_mjx.eval.methods import Method, get_method
 from poir_mjx.sweep.config import SweepConfig, base_config, baseline_config, config_dict, short_hash
 from poir_mjx.sweep.records import read_cell  # noqa: F401  (the one reader of cell records; here for its callers)
@@ -22,15 +22,17 @@ from poir_mjx.sweep.records import read_cell  # noqa: F401  (the one reader of c
 
 def demos_for(cfg: SweepConfig, task: str, data_dir: Path, progress: bool = True) -> tuple[Transitions, dict]:
     """The expert transitions for `task` (the file made on first use; read once, ``tr.path`` names it)
-    and their provenance, with a digest of their content ("sha256"), which keys checkpoints and cells."""
+    and their provenance, with a digest of their content ("sha256"), which keys checkpoints and cells. The observation
+    read is the config's (``observation``: every low-dim key, or the object-state alone)."""
+    keys = observation_keys(cfg.observation)
     if task in cfg.demo_files:
-        tr = read_transitions(cfg.demo_files[task], task=task)
+        tr = read_transitions(cfg.demo_files[task], task=task, obs_keys=keys)
         return tr, {"source": "file", "path": tr.path, "sha256": transitions_digest(tr)}
     from poir_mjx.data.demos import generate
 
     path = generate(task, cfg.num_demos, seed=0, sigma_init=0.02, out=data_dir, simulator=cfg.demo_simulator,
                     batch=cfg.demo_batch, progress=progress)  # fmt: skip
-    tr = read_transitions(path, task=task)
+    tr = read_transitions(path, task=task, obs_keys=keys)
     generator = tr.provenance.get("poir_mjx_generator", {})
     if not isinstance(generator, dict):
         raise DatasetError(f"{path}: field data.attrs['poir_mjx_generator'] is not a JSON object")
@@ -56,7 +58,7 @@ def checkpoint_file(method: Method, cfg: SweepConfig, task: str, seed: int, prov
     """Where the sweep keeps (method's kind, task, seed)'s agent trained on the data `provenance` describes
     (the path is keyed on the training config and the data), with the config and layout it must carry."""
     tcfg = method.training_config(base_config(cfg))
-    layout = {"task": task, "obs_keys": list(LOW_DIM_KEYS), "seed": seed, "demos": provenance}
+    layout = {"task": task, "obs_keys": list(observation_keys(cfg.observation)), "seed": seed, "demos": provenance}
     key = short_hash([config_dict(tcfg, online=False), layout])
     return Path(ckpt_dir) / task / f"{method.agent_kind}-seed{seed}-{key}.ckpt", tcfg, layout
 
@@ -70,10 +72,10 @@ def train_or_load(method: Method, cfg: SweepConfig, task: str, seed: int, tr: Tr
     if path.exists():
         agent, params, _ = checkpoint.load(path, tcfg, layout)
     else:
-        groups = obs_groups(task)
+        groups = obs_groups(task, observation=cfg.observation)
         if tr.obs.shape[1] != len(groups):
-            raise DatasetError(f"{tr.path}: observations {list(LOW_DIM_KEYS)} are {tr.obs.shape[1]} wide, "
-                               f"task {task} has {len(groups)}")  # fmt: skip
+            raise DatasetError(f"{tr.path}: observations {list(observation_keys(cfg.observation))} are "
+                               f"{tr.obs.shape[1]} wide, task {task} has {len(groups)}")  # fmt: skip
         agent = POIR(tcfg, tr.obs.shape[1], tr.actions.shape[1])
         raw_prior = method.agent_kind == "poir" and tcfg.bc_space == "raw"
         bc = _policy_heads(cfg, task, seed, provenance, ckpt_dir) if raw_prior else None
@@ -121,6 +123,7 @@ def cell_hash(cfg: SweepConfig, task: str, method: str, demo_sha256: str) -> str
         **({"demo_simulator": cfg.demo_simulator} if cfg.demo_simulator != "robosuite" else {}),
         **({"simulator": cfg.simulator} if cfg.simulator != "mjx" else {}),
         "x64": cfg.x64,
+        **({"observation": cfg.observation} if cfg.observation != "low_dim" else {}),
     }
     return short_hash(relevant)
 

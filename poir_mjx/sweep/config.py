@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Literal
 
 from poir_mjx.core.config import PRESETS, ConfigError, PlannerConfig, POIRConfig, apply_overrides, preset, to_dict
+from poir_mjx.envs.layout import OBSERVATIONS
 from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS, TASKS
 from poir_mjx.eval.methods import METHODS, get_method
 from poir_mjx.sweep.run_folder import RETIRED, run_name_problem, upgrade_recorded
@@ -21,6 +22,7 @@ Task = Literal[TASKS]  # type: ignore[valid-type]
 Simulator = Literal["mjx", "robosuite"]
 DemoSimulator = Literal["robosuite", "mjx"]
 Device = Literal["any", "cpu", "gpu"]
+Observation = Literal[tuple(OBSERVATIONS)]  # type: ignore[valid-type]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -72,6 +74,12 @@ class SweepConfig:
     {"DAC": {"total_env_steps": 20000}} (poir_mjx/baselines: each algorithm's Config)."""
     x64: bool = False
     """MJX physics in float64 (float32 once launched Square's nut mid-grasp); networks and planner stay float32."""
+    observation: Observation = "low_dim"
+    """What every network and reward sees: "low_dim", robomimic's low-dim set (hand position and quaternion, finger
+    joints, object-state: 19 numbers for Lift, 23 for Can and Square), or "object", robosuite's object-state vector
+    alone (object pose and object-to-gripper offset: 10 and 14 numbers), the paper's observation. The demos are read,
+    the MJX and robosuite episodes observed and the checkpoints and cells keyed accordingly; the scripted expert still
+    reads the full observation."""
 
 
     ZERO_OK = ("seeds", "workers")

@@ -100,7 +100,9 @@ def _task_table(cfg: SweepConfig, task: str, table: dict) -> tuple[str, str]:
     cols = [(si, sa) for si in cfg.sigma_init for sa in cfg.sigma_action]
     md = [f"## {task}", "", f"Success rate (Wilson 95% interval), {cfg.episodes} episodes x {len(cfg.seeds)} seed(s) "
           f"per cell, {cfg.max_steps} steps per episode, preset {cfg.preset}. "
-          f"Expert data: {_data_source(first['data'])}. Simulator: {first['simulator']}.", "",
+          f"Expert data: {_data_source(first['data'])}. Simulator: {first['simulator']}."
+          + (f" Observation: {cfg.observation} (robosuite's object-state vector alone)." if cfg.observation == "object"
+             else ""), "",
           "| method | " + " | ".join(noise_label(si, sa, cfg) for si, sa in cols) + " |",
           "|---|" + "---|" * len(cols)]  # fmt: skip
     csv = ["method," + ",".join(f"si={si:g} sa={sa:g} {x}" for si, sa in cols for x in ("rate", "lo", "hi"))]

@@ -47,12 +47,12 @@ def cell_episodes(run_cfg, src: Path, cfg: VideoConfig):
 
 
 @functools.lru_cache(maxsize=None)
-def _recorder(task: str, method, agent, steps: int, x64: bool):
-    """One compiled recording rollout per (task, method, agent config, steps, precision)."""
+def _recorder(task: str, method, agent, steps: int, x64: bool, observation: str):
+    """One compiled recording rollout per (task, method, agent config, steps, precision, the run's observation)."""
     from poir_mjx.envs.env import make_env
     from poir_mjx.video.record import recorder
 
-    return recorder(make_env(task), method.policy_fn(agent), steps)
+    return recorder(make_env(task, observation=observation), method.policy_fn(agent), steps)
 
 
 def record(cfg: VideoConfig, run_cfg, keys, env_params, steps: int, progress: bool) -> list:
@@ -68,7 +68,7 @@ def record(cfg: VideoConfig, run_cfg, keys, env_params, steps: int, progress: bo
             print(f"video: {name}: {len(cfg.episodes)} episode(s) x {steps} steps in MJX (compiles first)",
                   file=sys.stderr)  # fmt: skip
         with enable_x64() if run_cfg.x64 else contextlib.nullcontext():
-            run = _recorder(cfg.task, method, agent, steps, run_cfg.x64)
+            run = _recorder(cfg.task, method, agent, steps, run_cfg.x64, run_cfg.observation)
             recs.append(record_episodes(run, params, keys, env_params))
     return recs
 
