@@ -98,7 +98,7 @@ def run_spread(opts: DemosSpread) -> int:
     rows = [file_spread(p) for p in opts.data]
     table = spread_table(rows)
     if opts.out is not None:
-        atomic_write_text(opts.out, f"Command: `{command_line()}`.\n\n{table}")
+        atomic_write_text(opts.out, f"# Action spread of demo sets\n\nCommand: `{command_line()}`.\n\n{table}")
         atomic_write_text(opts.out.with_suffix(".json"), json.dumps(rows, indent=2) + "\n")
     print(table)
     return 0

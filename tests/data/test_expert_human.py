@@ -79,12 +79,11 @@ def test_the_same_key_gives_the_same_episode_on_the_robosuite_path_and_in_the_mj
         def __init__(self, obs):
             self.obs = obs
 
-    step = jax.jit(jax.vmap(lambda o, c: policy.act(None, c, State(o), None), in_axes=(None, 0)))
-    out = []
-    for o in seen:
-        a, carry = step({k: jnp.asarray(v) for k, v in o.items()}, carry)
-        out.append(np.asarray(a)[0])
-    out = np.stack(out)
+    def episode(c, observations):  # lax.scan over the steps, as the rollout's carry goes
+        return jax.lax.scan(lambda c, o: policy.act(None, c, State(o), None)[::-1], c, observations)[1]
+
+    observations = {k: jnp.stack([o[k] for o in seen]) for k in seen[0]}
+    out = np.asarray(jax.jit(jax.vmap(episode, in_axes=(0, None)))(carry, observations))[0]
     np.testing.assert_allclose(out, acts, atol=1e-5)
     np.testing.assert_array_equal(out[:, 6], acts[:, 6])
 
