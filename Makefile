@@ -44,6 +44,10 @@ SWEEP_ARGS ?=
 RESULTS ?= results/local
 # Where `make demos` records the scripted expert: robosuite (MuJoCo C) or mjx (vectorised, no robosuite).
 DEMO_SIM ?= robosuite
+# How the expert acts in `make demos`: scripted, or human_like (an operator's variability; -> <task>[-mjx]-human.hdf5).
+DEMO_STYLE ?= scripted
+# Extra flags for make demos, e.g. DEMO_ARGS='--tasks lift'.
+DEMO_ARGS ?=
 
 .PHONY: help venv envs demos expert-success diagnose test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench-robosuite bench sweep sweep-online eval xsim video ablations prior-study report wheels gpu-check gpu-carry clean
 
@@ -85,7 +89,7 @@ envs: $(STAMP)
 	$(PY) -m poir_mjx.cli envs --out envs
 
 demos: $(STAMP)
-	$(PY) -m poir_mjx.cli demos generate --out data/demos --simulator $(DEMO_SIM)
+	$(PY) -m poir_mjx.cli demos generate --out data/demos --simulator $(DEMO_SIM) --demo-style $(DEMO_STYLE) $(DEMO_ARGS)
 
 expert-success: $(STAMP)
 	$(PY) -m poir_mjx.cli demos success --simulator robosuite --episodes 100

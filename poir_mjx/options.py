@@ -159,9 +159,28 @@ class DemosGenerate:
     """MJX episodes per compiled batch (GPU: 256-1024)."""
     x64: bool = False
     """Record MJX demos with float64 physics (jax_enable_x64): NutAssemblySquare's grasp needs it (see demos success)."""
+    demo_style: Literal["scripted", "human_like"] = "scripted"
+    """scripted (the state machine alone) or human_like (rotation wobble, speed per segment, pauses, a lateral
+    approach waypoint, occasional re-grasps; -> <task>[-mjx]-human.hdf5)."""
 
     def outputs(self):
         return [(self.out, "folder", "--out")]
+
+
+@dataclasses.dataclass(frozen=True)
+class DemosSpread:
+    """The action spread of demo sets side by side: std per action dimension, rotation std, demo lengths, gripper
+    commands (docs/expert-data.md)."""
+
+    data: tuple[Path, ...]
+    """robomimic HDF5 files (e.g. data/demos/lift.hdf5 data/demos/lift-human.hdf5), one column each."""
+    out: Optional[Path] = None
+    """Also write the table to this file (markdown) and the numbers beside it (.json)."""
+
+    def outputs(self):
+        if self.out is None:
+            return []
+        return [(self.out, "file", "--out"), (Path(self.out).with_suffix(".json"), "file", "--out")]
 
 
 @dataclasses.dataclass(frozen=True)

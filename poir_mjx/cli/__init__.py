@@ -33,6 +33,7 @@ COMMANDS: tuple[Command, ...] = (
     Command("envs", o.Envs, "poir_mjx.cli.run:envs"),
     Command("demos generate", o.DemosGenerate, "poir_mjx.cli.demos:run_generate"),
     Command("demos success", o.DemosSuccess, "poir_mjx.cli.demos:run_success"),
+    Command("demos spread", o.DemosSpread, "poir_mjx.cli.demos:run_spread"),
     Command("bench env", "poir_mjx.bench.options:BenchEnv", "poir_mjx.bench.env:run"),
     Command("bench planner", "poir_mjx.bench.options:BenchPlanner", "poir_mjx.bench.planner:run"),
     Command("bench e2e", "poir_mjx.bench.options:BenchE2E", "poir_mjx.bench.e2e:run"),
@@ -44,7 +45,7 @@ COMMANDS: tuple[Command, ...] = (
 )
 # Subcommand groups: (help line, the subcommand run when none is named or None).
 GROUPS = {
-    "demos": ("Scripted-expert demonstrations (make demos) and the expert's success rate.", "generate"),
+    "demos": ("Scripted-expert demonstrations (make demos), the expert's success rate, demo sets' action spread.", "generate"),
     "bench": ("Throughput benchmarks (make bench-env, bench-planner, bench-e2e, bench-robosuite).", None),
 }
 PROG = "poir-mjx"

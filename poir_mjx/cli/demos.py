@@ -1,4 +1,5 @@
-"""``demos generate`` (make demos) and ``demos success`` (make expert-success): the scripted expert's commands."""
+"""``demos generate`` (make demos), ``demos success`` (make expert-success) and ``demos spread``: the scripted expert's
+commands."""
 
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ from poir_mjx.data.demos import generate
 from poir_mjx.data.expert_episodes import EXPERT_STEPS
 from poir_mjx.envs.tasks import float32_square_note
 from poir_mjx.eval.expert_success import mjx_partial_path, mjx_success, robosuite_success
-from poir_mjx.options import DemosGenerate, DemosSuccess
+from poir_mjx.options import DemosGenerate, DemosSpread, DemosSuccess
 from poir_mjx.versions import command_line
 
 
@@ -40,7 +41,8 @@ def run_generate(opts: DemosGenerate) -> int:
         raise ConfigError(f"--out: {opts.out} is a file, expected a folder for the HDF5 files")
     set_precision(opts.x64, opts.tasks, (opts.simulator,))
     for task in opts.tasks:
-        generate(task, opts.num, opts.seed, opts.sigma_init, opts.out, simulator=opts.simulator, batch=opts.batch)
+        generate(task, opts.num, opts.seed, opts.sigma_init, opts.out, simulator=opts.simulator, batch=opts.batch,
+                 style=opts.demo_style)  # fmt: skip
     return 0
 
 
@@ -83,5 +85,20 @@ def run_success(opts: DemosSuccess) -> int:
     atomic_write_text(opts.out / f"success_{tag}.json", json.dumps(rows, indent=2) + "\n")
     for p in partials:  # their outcomes are in the tables now
         p.unlink(missing_ok=True)
+    print(table)
+    return 0
+
+
+def run_spread(opts: DemosSpread) -> int:
+    """The demo sets' action spread side by side, printed (and written to --out with its numbers as JSON)."""
+    from poir_mjx.data.spread import file_spread, spread_table
+
+    if not opts.data:
+        raise ConfigError("--data: give at least one robomimic HDF5 file")
+    rows = [file_spread(p) for p in opts.data]
+    table = spread_table(rows)
+    if opts.out is not None:
+        atomic_write_text(opts.out, f"# Action spread of demo sets\n\nCommand: `{command_line()}`.\n\n{table}")
+        atomic_write_text(opts.out.with_suffix(".json"), json.dumps(rows, indent=2) + "\n")
     print(table)
     return 0

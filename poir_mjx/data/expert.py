@@ -6,9 +6,11 @@ same code runs on robosuite's observations and inside a vmapped MJX rollout). Ph
     0 approach above the grasp point  1 descend  2 close  3 lift
     4 carry over the target           5 lower    6 open   7 retreat
 
-Lift stops after phase 3. Human-like variety: each episode draws its approach height, grasp
-depth, lift and carry heights, release point, speed gain and closing time, and every action gets
-small Gaussian jitter, so the data covers a neighbourhood of the expert path.
+Lift stops after phase 3. Variety: each episode draws its approach height, grasp depth, lift and
+carry heights, release point, speed gain and closing time, and every position action gets small
+Gaussian jitter, so the data covers a neighbourhood of the expert path. The rotation actions are a
+fixed function of the observation; ``expert_human.py`` adds an operator's variability on top (the
+``human_like`` demo style).
 """
 
 from __future__ import annotations
@@ -26,12 +28,18 @@ from poir_mjx.envs.rotation import quat_xyzw_to_mat
 from poir_mjx.envs.tasks import grasp_offset
 
 NAME = "poir-mjx scripted expert v1"
+# How the expert acts: "scripted" (this module alone) or "human_like" (expert_human.py's operator variability).
+STYLES = ("scripted", "human_like")
 
 
-def generator_record(task: str, num: int, seed: int, sigma_init: float, simulator: str) -> dict:
-    """What identifies a demo file made by this expert (stored in it; equal records mean equal settings)."""
-    return {"expert": NAME, "simulator": simulator, "task": task, "num_demos": num, "seed": seed,
-            "sigma_init": sigma_init, "sigma_action": 0.0}  # fmt: skip
+def generator_record(task: str, num: int, seed: int, sigma_init: float, simulator: str,
+                     style: str = "scripted") -> dict:  # fmt: skip
+    """What identifies a demo file made by this expert (stored in it; equal records mean equal settings). The
+    style is named unless it is "scripted", so the records (and the checkpoint keys made from them) of files
+    made before styles existed stay as they were."""
+    rec = {"expert": NAME, "simulator": simulator, "task": task, "num_demos": num, "seed": seed,
+           "sigma_init": sigma_init, "sigma_action": 0.0}  # fmt: skip
+    return rec if style == "scripted" else {**rec, "demo_style": style}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -113,14 +121,19 @@ def init(task: ExpertTask, rng: jax.Array) -> ExpertState:
     )
 
 
+def object_pose(task: ExpertTask, obs: dict) -> tuple[jax.Array, jax.Array, jax.Array]:
+    """The object's position, rotation matrix and grasp point, from the observation."""
+    o = obs["object"]
+    obj = o[task.obj_pos_slice[0] : task.obj_pos_slice[1]]
+    r_obj = quat_xyzw_to_mat(o[task.obj_quat_slice[0] : task.obj_quat_slice[1]])
+    return obj, r_obj, obj + r_obj @ jnp.asarray(task.grasp_offset_obj)
+
+
 def act(task: ExpertTask, obs: dict, st: ExpertState) -> tuple[jax.Array, ExpertState]:
     """One expert action (7,) in [-1, 1] and the next expert state."""
     eef = obs["robot0_eef_pos"]
     r_hand = quat_xyzw_to_mat(obs["robot0_eef_quat"])
-    o = obs["object"]
-    obj = o[task.obj_pos_slice[0] : task.obj_pos_slice[1]]
-    r_obj = quat_xyzw_to_mat(o[task.obj_quat_slice[0] : task.obj_quat_slice[1]])
-    grasp = obj + r_obj @ jnp.asarray(task.grasp_offset_obj)
+    obj, r_obj, grasp = object_pose(task, obs)
     held_offset = eef - obj  # eef relative to the object (meaningful once grasped)
     is_lift = task.task == "lift"
 

@@ -9,27 +9,34 @@ import jax
 import numpy as np
 
 from poir_mjx.data import expert as ex
+from poir_mjx.data.expert_human import expert_fns, expert_steps
 from poir_mjx.data.robomimic import LOW_DIM_KEYS, Demo, robosuite_obs
 from poir_mjx.envs.tasks import HORIZON, make_robosuite
 
 EXPERT_STEPS = {"lift": 120, "pick_place_can": 300, "nut_assembly_square": 300}
 
 
+def episode_steps(task: str, style: str = "scripted") -> int:
+    """Steps an expert episode of `style` is given (the human-like expert's pauses and re-grasps take longer)."""
+    return expert_steps(EXPERT_STEPS[task], style, HORIZON)
+
+
 @functools.lru_cache(maxsize=None)
-def _jit_expert(task: str):
-    et = ex.expert_task(task)
-    return jax.jit(lambda rng: ex.init(et, rng)), jax.jit(lambda obs, st: ex.act(et, obs, st))
+def _jit_expert(task: str, style: str = "scripted"):
+    init, act = expert_fns(ex.expert_task(task), style)
+    return jax.jit(init), jax.jit(act)
 
 
-def robosuite_episode(task: str, seed: int, sigma_init: float = 0.02, max_steps: int | None = None, env=None):
+def robosuite_episode(task: str, seed: int, sigma_init: float = 0.02, max_steps: int | None = None, env=None,
+                      style: str = "scripted"):  # fmt: skip
     """One expert episode in robosuite. Returns (Demo, success, steps, seconds). Stops 5 steps after success."""
     env = env or make_robosuite(task, seed=seed, initialization_noise={"magnitude": sigma_init, "type": "gaussian"})
-    init, act = _jit_expert(task)
+    init, act = _jit_expert(task, style)
     raw = env.reset()
     st = init(jax.random.PRNGKey(seed))
     obs_l, nxt_l, acts, states, rewards, dones = [], [], [], [], [], []
     t0, success, after = time.perf_counter(), False, 0
-    for t in range(max_steps or min(EXPERT_STEPS[task], HORIZON)):
+    for t in range(max_steps or min(episode_steps(task, style), HORIZON)):
         o = robosuite_obs(raw)
         a, st = act(o, st)
         a = np.asarray(a, np.float64)

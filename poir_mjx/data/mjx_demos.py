@@ -20,7 +20,8 @@ import numpy as np
 
 from poir_mjx.data import expert as ex
 from poir_mjx.data.robomimic import ENV_NAMES, LOW_DIM_KEYS, Demo, write_robomimic
-from poir_mjx.data.expert_episodes import EXPERT_STEPS
+from poir_mjx.data.expert_episodes import episode_steps
+from poir_mjx.data.expert_human import expert_fns
 from poir_mjx.envs.env import float_dtype, make_env, make_params
 from poir_mjx.envs.tasks import CONTROL_FREQ, HORIZON, task_files
 from poir_mjx.rollout.episode import Policy, batched_episodes
@@ -38,8 +39,8 @@ def simulator_name() -> str:
     return f"MJX (mujoco-mjx {mjx_version()}, MuJoCo {mujoco.__version__}, jax {jax.__version__}, {precision})"
 
 
-def generator_info(task: str, num: int, seed: int, sigma_init: float) -> dict:
-    return ex.generator_record(task, num, seed, sigma_init, simulator_name())
+def generator_info(task: str, num: int, seed: int, sigma_init: float, style: str = "scripted") -> dict:
+    return ex.generator_record(task, num, seed, sigma_init, simulator_name(), style)
 
 
 def env_args(task: str, sigma_init: float) -> dict:
@@ -56,14 +57,14 @@ def env_args(task: str, sigma_init: float) -> dict:
             "env_kwargs": kwargs}  # fmt: skip
 
 
-def expert_policy(task: str) -> Policy:
-    """The scripted expert as a rollout policy: its state machine is the carry, seeded by the run key."""
-    et = ex.expert_task(task)
-    return Policy(act=lambda _, e, state, k: ex.act(et, state.obs, e), init=lambda _, k: ex.init(et, k))
+def expert_policy(task: str, style: str = "scripted") -> Policy:
+    """The scripted expert (in `style`) as a rollout policy: its state machine is the carry, seeded by the run key."""
+    init, act = expert_fns(ex.expert_task(task), style)
+    return Policy(act=lambda _, e, state, k: act(state.obs, e), init=lambda _, k: init(k))
 
 
 @functools.lru_cache(maxsize=None)
-def expert_rollout(task: str, steps: int):
+def expert_rollout(task: str, steps: int, style: str = "scripted"):
     """jit(vmap(episode)): (unused params, keys [B], EnvParams [B]) -> (outcomes [B], per-step records [B, T, ...])."""
 
     def record(s, a, s2):
@@ -71,7 +72,7 @@ def expert_rollout(task: str, steps: int):
         return {"obs": s.obs, "next_obs": s2.obs, "action": a, "success": s2.success,
                 "state": jnp.concatenate([d.time[None], d.qpos, d.qvel])}  # fmt: skip
 
-    return batched_episodes(make_env(task), expert_policy(task), steps, record)
+    return batched_episodes(make_env(task), expert_policy(task, style), steps, record)
 
 
 def episode_keys(seed: int, start: int, n: int) -> jax.Array:
@@ -92,12 +93,12 @@ def cut_demo(traj: dict, j: int, first: int, steps: int) -> Demo:
 
 
 def generate_mjx(task: str, num: int, seed: int, sigma_init: float, path: Path, batch: int = 16,
-                 progress: bool = True) -> dict:  # fmt: skip
+                 progress: bool = True, style: str = "scripted") -> dict:  # fmt: skip
     """Run the expert in batches until `num` successful episodes; write them to `path`. Returns stats."""
     from tqdm import tqdm
 
-    steps = EXPERT_STEPS[task]
-    rollout = expert_rollout(task, steps)
+    steps = episode_steps(task, style)
+    rollout = expert_rollout(task, steps, style)
     params = make_params(np.full(batch, sigma_init), 0.0)
     demos, lengths, tried, t0 = [], [], 0, time.perf_counter()
     bar = tqdm(total=num, desc=f"demos {task} (MJX, batch {batch})", unit="demo", disable=not progress)
@@ -117,7 +118,7 @@ def generate_mjx(task: str, num: int, seed: int, sigma_init: float, path: Path, 
     model_xml = task_files(task).xml.read_text()
     for d in demos:
         d.model_file = model_xml
-    info = generator_info(task, num, seed, sigma_init)
+    info = generator_info(task, num, seed, sigma_init, style)
     stats = {**info, "episodes_tried": tried, "success_rate": len(demos) / tried,
              "length_mean": float(np.mean(lengths)), "length_min": int(np.min(lengths)),
              "length_max": int(np.max(lengths)), "seconds": time.perf_counter() - t0, "batch": batch}  # fmt: skip

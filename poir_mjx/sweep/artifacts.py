@@ -31,7 +31,7 @@ def demos_for(cfg: SweepConfig, task: str, data_dir: Path, progress: bool = True
     from poir_mjx.data.demos import generate
 
     path = generate(task, cfg.num_demos, seed=0, sigma_init=0.02, out=data_dir, simulator=cfg.demo_simulator,
-                    batch=cfg.demo_batch, progress=progress)  # fmt: skip
+                    batch=cfg.demo_batch, progress=progress, style=cfg.demo_style)  # fmt: skip
     tr = read_transitions(path, task=task, obs_keys=keys)
     generator = tr.provenance.get("poir_mjx_generator", {})
     if not isinstance(generator, dict):
@@ -121,6 +121,7 @@ def cell_hash(cfg: SweepConfig, task: str, method: str, demo_sha256: str) -> str
         "num_demos": cfg.num_demos,
         "demo_file": cfg.demo_files.get(task),
         **({"demo_simulator": cfg.demo_simulator} if cfg.demo_simulator != "robosuite" else {}),
+        **({"demo_style": cfg.demo_style} if cfg.demo_style != "scripted" and task not in cfg.demo_files else {}),
         **({"simulator": cfg.simulator} if cfg.simulator != "mjx" else {}),
         "x64": cfg.x64,
         **({"observation": cfg.observation} if cfg.observation != "low_dim" else {}),

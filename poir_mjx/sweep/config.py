@@ -21,6 +21,7 @@ Preset = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
 Task = Literal[TASKS]  # type: ignore[valid-type]
 Simulator = Literal["mjx", "robosuite"]
 DemoSimulator = Literal["robosuite", "mjx"]
+DemoStyle = Literal["scripted", "human_like"]
 Device = Literal["any", "cpu", "gpu"]
 Observation = Literal[tuple(OBSERVATIONS)]  # type: ignore[valid-type]
 
@@ -54,6 +55,10 @@ class SweepConfig:
     (vectorised in MJX, no robosuite: the path for a GPU machine)."""
     demo_batch: int = 16
     """MJX episodes per compiled batch when demo_simulator is "mjx" (GPU: 256-1024)."""
+    demo_style: DemoStyle = "scripted"
+    """How the scripted expert acts: "scripted" (its state machine alone) or "human_like" (an operator's
+    variability on top: rotation wobble, speed per segment, pauses, a lateral approach waypoint, occasional
+    re-grasps; poir_mjx/data/expert_human.py; files <task>[-mjx]-human.hdf5). Ignored for tasks in demo_files."""
     simulator: Simulator = "mjx"
     """Where the evaluation episodes run: "mjx" (vectorised, one compiled rollout: the GPU path) or
     "robosuite" (the reference: robosuite's own environment and controller in `workers` processes,

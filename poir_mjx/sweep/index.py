@@ -50,7 +50,9 @@ def _config(run: Path) -> dict:
 def _setup(cfg: dict) -> str:
     """One line of a run's setup from its config."""
     seeds, files = cfg.get("seeds", [0]), cfg.get("demo_files") or {}
-    data = f"{cfg.get('num_demos', '?')} scripted-expert demos recorded in {cfg.get('demo_simulator', 'robosuite')}"
+    style = "" if cfg.get("demo_style", "scripted") == "scripted" else f" ({cfg['demo_style']})"
+    data = (f"{cfg.get('num_demos', '?')} scripted-expert{style} demos recorded in "
+            f"{cfg.get('demo_simulator', 'robosuite')}")  # fmt: skip
     data = "; ".join([f"demo file {t}: {f}" for t, f in sorted(files.items())] + ([] if files else [data]))
     overrides = ", ".join(f"{k}={v}" for k, v in sorted((cfg.get("overrides") or {}).items())) or "none"
     if cfg.get("baseline_overrides"):
@@ -130,14 +132,14 @@ def generate(results: Path) -> str:
     runs = published_runs(results)
     lines = ["# Results", "", HEADER, "",
              "One section per published run (its folder holds `config.json`, every table, the plots and, for the "
-             "prior study, the cell records), then the tables across runs, the benchmarks and the expert's success "
-             "rate and the GPU check. The reading of these runs: [docs/results.md](../docs/results.md), "
-             "[docs/results-prior.md](../docs/results-prior.md).", ""]  # fmt: skip
+             "prior study, the cell records), then the tables across runs, the benchmarks, the expert's success "
+             "rate and its demos' action spread, and the GPU check. The reading of these runs: "
+             "[docs/results.md](../docs/results.md), [docs/results-prior.md](../docs/results-prior.md).", ""]  # fmt: skip
     for run in runs:
         lines += _run_section(run)
     lines += _page_links(results, "*.md", "Tables across runs")
     lines += _page_links(results, "bench/*.md", "Benchmarks")
-    lines += _page_links(results, "expert/*.md", "The scripted expert's success rate")
+    lines += _page_links(results, "expert/*.md", "The scripted expert's success rate and its demos' action spread")
     lines += _page_links(results, "gpu/*.md", "On a GPU (make gpu-check)")
     return "\n".join(lines).rstrip("\n") + "\n"
 

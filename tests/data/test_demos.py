@@ -35,3 +35,23 @@ def test_generate_writes_a_valid_robomimic_file_and_skips_done_work(tmp_path, ca
     mtime = path.stat().st_mtime_ns
     generate("lift", num=2, seed=0, sigma_init=0.02, out=tmp_path, progress=False)
     assert path.stat().st_mtime_ns == mtime and "skipped" in capsys.readouterr().out
+
+
+@pytest.mark.needs_robosuite
+def test_human_like_demos_are_their_own_file_naming_their_style(tmp_path):
+    """`demos generate --demo-style human_like` in robosuite: successful demos only, in <task>-human[-n<num>].hdf5,
+    the generator record naming the style, rotation actions that vary where the scripted ones hardly do."""
+    from poir_mjx import cli
+    from poir_mjx.data.spread import file_spread
+
+    assert cli.main(["demos", "generate", "--tasks", "lift", "--num", "3", "--out", str(tmp_path),
+                     "--demo-style", "human_like"]) == 0  # fmt: skip
+    path = tmp_path / "lift-human-n3.hdf5"
+    with h5py.File(path) as f:
+        gen = json.loads(f["data"].attrs["poir_mjx_generator"])
+        stats = json.loads(f["data"].attrs["poir_mjx_stats"])
+        assert gen["demo_style"] == "human_like" and gen["simulator"].startswith("robosuite")
+        assert all(f[f"data/demo_{k}/rewards"][-1] == 1 for k in range(3))  # each demo ends in success
+    assert stats["success_rate"] == 3 / stats["episodes_tried"]
+    spread = file_spread(path)
+    assert spread["style"] == "human_like" and spread["std"]["rx"] > 0.01 and spread["std"]["ry"] > 0.01

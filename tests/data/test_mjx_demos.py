@@ -36,3 +36,30 @@ def test_mjx_demos_are_successful_episodes_in_robomimic_layout(tmp_path, capsys)
     mtime = path.stat().st_mtime_ns
     generate("lift", num=2, seed=0, sigma_init=0.02, out=tmp_path, progress=False, simulator="mjx", batch=2)
     assert path.stat().st_mtime_ns == mtime and "skipped" in capsys.readouterr().out
+
+
+@pytest.mark.slow
+def test_human_like_mjx_demos_are_the_robosuite_paths_actions_for_the_same_key(tmp_path):
+    """Two human-like Lift demos recorded in MJX (vmapped, lax.scan): the robosuite recorder's jitted expert, given the
+    episode's key and the demo's own observations, acts bit for bit the same, and the record names the style. (The
+    two simulators' episodes differ in their initial states and keys, so the check is on the same inputs.)"""
+    import jax
+
+    from poir_mjx.data.expert_episodes import _jit_expert
+    from poir_mjx.data.robomimic import LOW_DIM_KEYS
+
+    path = generate("lift", num=2, seed=0, sigma_init=0.02, out=tmp_path, progress=False, simulator="mjx", batch=2,
+                    style="human_like")  # fmt: skip
+    assert path.name == "lift-mjx-human-n2.hdf5"
+    init, act = _jit_expert("lift", "human_like")
+    with h5py.File(path) as f:
+        assert json.loads(f["data"].attrs["poir_mjx_generator"])["demo_style"] == "human_like"
+        for j in range(2):
+            g = f[f"data/demo_{j}"]
+            # the rollout's policy key: split(episode key)[1] (rollout/episode.py), episode key fold_in(seed, j)
+            st = init(jax.random.split(jax.random.fold_in(jax.random.PRNGKey(0), j))[1])
+            out = []
+            for t in range(g["actions"].shape[0]):
+                a, st = act({k: g["obs"][k][t] for k in LOW_DIM_KEYS}, st)
+                out.append(np.asarray(a))
+            np.testing.assert_array_equal(np.stack(out), g["actions"][()])

@@ -96,15 +96,18 @@ def test_malformed_config_names_the_field(tmp_path, patch, match):
 def test_new_sweep_fields_are_validated(tmp_path):
     base = {"name": "x", "tasks": ["lift"], "methods": ["EBC"]}
     for field, value, msg in (("demo_simulator", "gazebo", "field 'demo_simulator'"),
-                              ("device", "tpu", "field 'device'"), ("demo_batch", 0, "field 'demo_batch'")):  # fmt: skip
+                              ("device", "tpu", "field 'device'"), ("demo_batch", 0, "field 'demo_batch'"),
+                              ("demo_style", "humanlike", "field 'demo_style': .*human_like")):  # fmt: skip
         f = tmp_path / f"{field}.json"
         f.write_text(json.dumps({**base, field: value}))
         with pytest.raises(ConfigError, match=msg):
             load_sweep_config(f)
     f = tmp_path / "ok.json"
-    f.write_text(json.dumps({**base, "demo_simulator": "mjx", "demo_batch": 4, "device": "cpu"}))
+    f.write_text(json.dumps({**base, "demo_simulator": "mjx", "demo_batch": 4, "device": "cpu", "demo_style": "human_like"}))
     cfg = load_sweep_config(f)
-    assert cfg.demo_simulator == "mjx" and cfg.device == "cpu"
+    assert cfg.demo_simulator == "mjx" and cfg.device == "cpu" and cfg.demo_style == "human_like"
+    assert load_sweep_config("experiments/cpu-prior-human-demos.json").demo_style == "human_like"
+    assert load_sweep_config("experiments/cpu-small.json").demo_style == "scripted"  # the default
 
 
 def test_gpu_requested_without_a_gpu_is_one_line_and_exit_2(tmp_path, capsys):

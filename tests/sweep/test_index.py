@@ -138,3 +138,12 @@ def test_in_a_git_work_tree_only_runs_whose_config_git_tracks_are_published(tmp_
     assert "## [tiny](tiny/)" in page and "running" not in page
     subprocess.run(["git", "add", "results/running"], cwd=tmp_path, check=True)
     assert "## [running](running/)" in generate(results)
+
+
+def test_a_runs_setup_names_human_like_demos():
+    from poir_mjx.sweep.index import _setup
+
+    cfg = {"tasks": ["lift"], "methods": ["EBC"], "episodes": 5, "max_steps": 400, "sigma_init": [0.1]}
+    assert "Expert data: 200 scripted-expert demos recorded in robosuite." in _setup({**cfg, "num_demos": 200})
+    human = _setup({**cfg, "num_demos": 200, "demo_style": "human_like"})
+    assert "Expert data: 200 scripted-expert (human_like) demos recorded in robosuite." in human
