@@ -49,7 +49,7 @@ DEMO_STYLE ?= scripted
 # Extra flags for make demos, e.g. DEMO_ARGS='--tasks lift'.
 DEMO_ARGS ?=
 
-.PHONY: help venv envs demos expert-success diagnose test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench-robosuite bench sweep sweep-online eval xsim video ablations prior-study report wheels gpu-check gpu-carry clean
+.PHONY: help venv envs demos expert-success diagnose test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench-robosuite bench sweep sweep-online eval xsim video ablations prior-study report wheels gpu-check gpu-carry gpu-demos clean
 
 help:
 	@echo "make test       - both dependency sets: the full suite on the CPU set, the current-stack suite (CI runs this)"
@@ -221,6 +221,15 @@ gpu-carry:
 	  --implementation cp --platform manylinux_2_28_x86_64 --platform manylinux_2_27_x86_64 \
 	  --platform manylinux_2_17_x86_64 --platform manylinux2014_x86_64 --platform any -d .whl $(GPU_CARRY_PINS)
 	@du -sh .whl && ls .whl
+	$(MAKE) gpu-demos
+
+# The demos the GPU check trains on, recorded here (robosuite, make demos) and carried as compact copies (the same
+# transitions and digest, about a sixth of the size): .gpu-demos/lift.hdf5 and pick_place_can.hdf5.
+GPU_DEMO_TASKS ?= lift pick_place_can
+gpu-demos: $(STAMP)
+	$(PY) -m poir_mjx.cli demos generate --tasks $(GPU_DEMO_TASKS) --out data/demos
+	$(PY) -m poir_mjx.cli demos compact --data $(foreach t,$(GPU_DEMO_TASKS),data/demos/$(t).hdf5) --out .gpu-demos
+	@du -sh .gpu-demos
 
 clean:
 	rm -rf .venv .venv-current .venv-gpu .cache .pytest_cache $(CACHE_HOME)

@@ -184,6 +184,20 @@ class DemosSpread:
 
 
 @dataclasses.dataclass(frozen=True)
+class DemosCompact:
+    """Copy robomimic files keeping what training reads (actions, low-dim observations, float32): the same
+    transitions and digest in a fraction of the size, to carry to an offline GPU machine (make gpu-carry)."""
+
+    data: tuple[Path, ...]
+    """The robomimic files to copy."""
+    out: Path = Path(".gpu-demos")
+    """Output folder: <out>/<the file's name> for each."""
+
+    def outputs(self):
+        return [(self.out, "folder", "--out"), *((self.out / Path(d).name, "file", "--out") for d in self.data)]
+
+
+@dataclasses.dataclass(frozen=True)
 class DemosSuccess:
     """Measure the scripted expert's success rate and write a table (make expert-success)."""
 
@@ -216,8 +230,9 @@ class DemosSuccess:
 
 @dataclasses.dataclass(frozen=True)
 class GpuCheck:
-    """The prepared GPU run (make gpu-check): env, planner, end-to-end, sweep and expert stages in priority
-    order, each under a deadline, each writing <out>/<stage>.json after every row; complete stages are skipped."""
+    """The prepared GPU run (make gpu-check): env, end-to-end, a paper-size cell, expert, sweep and planner stages in
+    priority order, each under a deadline, each writing <out>/<stage>.json after every row; complete stages are
+    skipped."""
 
     out: Path = Path("results/gpu")
     """Output folder (on the lent machine: $OUT): <stage>.json and summary.md."""
@@ -225,10 +240,14 @@ class GpuCheck:
     """The same stages at tiny sizes on the CPU, in this process (make test-current runs it)."""
     scratch: Path = Path("/tmp/poir-mjx-gpu-check")
     """Demos, checkpoints and the sweep's run folder (not results)."""
-    stages: tuple[Literal["env", "planner", "e2e", "sweep", "expert"], ...] = ("env", "planner", "e2e", "sweep", "expert")
+    stages: tuple[Literal["env", "e2e", "cell", "expert", "sweep", "planner"], ...] = (
+        "env", "e2e", "cell", "expert", "sweep", "planner")  # fmt: skip
     """Stages to run (always in priority order)."""
-    only: Optional[Literal["env", "planner", "e2e", "sweep", "expert"]] = None
+    only: Optional[Literal["env", "e2e", "cell", "expert", "sweep", "planner"]] = None
     """Run this one stage here and now, no deadline (what the runner's child processes do)."""
+    demos: Path = Path(".gpu-demos")
+    """Demo files recorded on a CPU and carried (make gpu-carry: <task>.hdf5, compact copies); a task without one
+    has its demos recorded in MJX on the device."""
 
     def outputs(self):
         return [(self.out, "folder", "--out"), (self.scratch, "folder", "--scratch")]

@@ -42,8 +42,15 @@ def test_preflight_names_what_is_missing(monkeypatch, capsys):
 @pytest.mark.skipif(has_robosuite(), reason="make test-current's: the GPU machine's software has no robosuite, and "
                     "the CPU set's own tests cover the stages' code")  # fmt: skip
 def test_dry_run_runs_every_stage_and_a_rerun_skips_them(tmp_path, capsys):
-    out, scratch = tmp_path / "gpu", tmp_path / "scratch"
-    assert cli.main(["gpu-check", "--dry-run", "--out", str(out), "--scratch", str(scratch)]) == 0
+    from poir_mjx.data.compact import compact
+    from poir_mjx.data.robomimic import write_robomimic
+    from tests.helpers import ENV_ARGS, make_demo
+
+    out, scratch, demos = tmp_path / "gpu", tmp_path / "scratch", tmp_path / "demos"
+    # Lift demos carried from a CPU (compact copies, as make gpu-carry makes them): e2e, cell and sweep train on them
+    compact(write_robomimic(tmp_path / "lift.hdf5", [make_demo(100, s) for s in range(3)], ENV_ARGS), demos / "lift.hdf5")
+    args = ["gpu-check", "--dry-run", "--out", str(out), "--scratch", str(scratch), "--demos", str(demos)]
+    assert cli.main(args) == 0
     for stage in STAGES:
         data = json.loads((out / f"{stage}.json").read_text())
         assert data["complete"] and data["dry_run"] and data["rows"], stage
@@ -52,13 +59,15 @@ def test_dry_run_runs_every_stage_and_a_rerun_skips_them(tmp_path, capsys):
     assert [r["batch"] for r in rows["env"]] == [1] and all(r["control_steps_per_s"] > 0 for r in rows["env"])
     assert {r["reward"] for r in rows["planner"]} == {"dril", "l2", "morel"}
     assert all(r["matmul_flops_per_call"] > 0 and r["achieved_flop_s"] > 0 for r in rows["planner"])
-    assert [r["method"] for r in rows["e2e"]] == ["EBC", "POIR-DRIL"] and rows["e2e"][0]["demo_simulator"] == "mjx"
+    assert [r["method"] for r in rows["e2e"]] == ["EBC", "POIR-DRIL"] and rows["e2e"][0]["demos"] == "file"
+    assert [(r["method"], r["episodes"]) for r in rows["cell"]] == [("EBC", 4), ("POIR-random", 4), ("POIR-DRIL", 4)]
+    assert len({r["demo_sha256"] for r in rows["cell"]}) == 1 and rows["cell"][0]["demos"] == "file"
     assert {(r["method"], r["episodes"]) for r in rows["sweep"]} == {("EBC", 2), ("POIR-DRIL", 2)}
     assert rows["expert"][0]["task"] == "lift" and rows["expert"][0]["episodes"] == 2
     summary = (out / "summary.md").read_text()
     assert "## env: complete" in summary and "## expert: complete" in summary
     capsys.readouterr()
-    assert cli.main(["gpu-check", "--dry-run", "--out", str(out), "--scratch", str(scratch)]) == 0
+    assert cli.main(args) == 0
     assert capsys.readouterr().out.count("complete earlier") == 0  # skipped stages print nothing...
     assert "## planner: complete earlier" in (out / "summary.md").read_text()  # ...and say so in the summary
 
@@ -92,3 +101,16 @@ def test_benchmarks_keep_the_rows_measured_before_an_interruption(tmp_path, monk
         planner.run(BenchPlanner(out=tmp_path, presets=("cpu-small",), rewards=("dril",), batch_sizes=(1, 2)))
     rows = json.loads((tmp_path / "planner.json").read_text())["rows"]
     assert len(rows) == 1 and rows[0]["batch"] == 1 and "| dril | 1 |" in (tmp_path / "planner.md").read_text()
+
+
+def test_a_stage_record_counts_the_programs_it_compiles(tmp_path):
+    import jax
+    import jax.numpy as jnp
+
+    from poir_mjx.gpucheck.record import Record
+
+    rec = Record(tmp_path, "env", {}, dry_run=True)
+    jax.jit(lambda x: jnp.sin(x) * 3.25 + 0.125)(jnp.arange(7.0)).block_until_ready()  # a program not seen before
+    rec.add({"row": 1})
+    c = json.loads((tmp_path / "env.json").read_text())["compilations"]
+    assert c["programs"] >= 1 and c["backend_compile_s"] > 0 and c["trace_s"] > 0

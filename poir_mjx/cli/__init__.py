@@ -34,6 +34,7 @@ COMMANDS: tuple[Command, ...] = (
     Command("demos generate", o.DemosGenerate, "poir_mjx.cli.demos:run_generate"),
     Command("demos success", o.DemosSuccess, "poir_mjx.cli.demos:run_success"),
     Command("demos spread", o.DemosSpread, "poir_mjx.cli.demos:run_spread"),
+    Command("demos compact", o.DemosCompact, "poir_mjx.cli.demos:run_compact"),
     Command("bench env", "poir_mjx.bench.options:BenchEnv", "poir_mjx.bench.env:run"),
     Command("bench planner", "poir_mjx.bench.options:BenchPlanner", "poir_mjx.bench.planner:run"),
     Command("bench e2e", "poir_mjx.bench.options:BenchE2E", "poir_mjx.bench.e2e:run"),

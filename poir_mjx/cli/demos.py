@@ -102,3 +102,20 @@ def run_spread(opts: DemosSpread) -> int:
         atomic_write_text(opts.out.with_suffix(".json"), json.dumps(rows, indent=2) + "\n")
     print(table)
     return 0
+
+
+def run_compact(opts) -> int:
+    """Each file's compact copy, checked to give the same transitions (content digest) as its source."""
+    from poir_mjx.data.compact import compact
+    from poir_mjx.data.robomimic import DatasetError, read_transitions
+    from poir_mjx.sweep.artifacts import transitions_digest
+
+    for src in opts.data:
+        dst = compact(src, Path(opts.out) / Path(src).name)
+        before, after = transitions_digest(read_transitions(src)), transitions_digest(read_transitions(dst))
+        if before != after:
+            dst.unlink()
+            raise DatasetError(f"{src}: its compact copy reads as other transitions (digest {after}, not {before})")
+        print(f"wrote {dst}: {dst.stat().st_size / 1e6:.1f} MB (from {Path(src).stat().st_size / 1e6:.1f} MB), "
+              f"the same transitions (digest {after})")
+    return 0

@@ -14,6 +14,6 @@ def run(opts: GpuCheck) -> int:
     else:  # --only too: a stage at GPU sizes never runs on a CPU
         select_device("gpu", "gpu-check (--dry-run for the CPU)")
     if opts.only is not None:
-        run_stage(opts.only, opts.dry_run, opts.out, opts.scratch)
+        run_stage(opts.only, opts.dry_run, opts.out, opts.scratch, opts.demos)
         return 0
-    return run_all(opts.out, opts.scratch, opts.dry_run, opts.stages)
+    return run_all(opts.out, opts.scratch, opts.dry_run, opts.stages, opts.demos)

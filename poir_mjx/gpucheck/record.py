@@ -28,11 +28,33 @@ def machine() -> dict:
             "x64": bool(jax.config.jax_enable_x64), "command": command_line()}  # fmt: skip
 
 
+# What jax reports of each compilation (jax.monitoring), summed for the stage being recorded: how many programs a
+# stage compiles and where its compile time goes, so the stages' deadlines can be budgeted by compilations.
+_EVENTS = {"/jax/core/compile/backend_compile_duration": "backend_compile", "/jax/core/compile/jaxpr_trace_duration":
+           "trace", "/jax/core/compile/jaxpr_to_mlir_module_duration": "lowering"}  # fmt: skip
+_current: list = []
+
+
+def _on_event(event: str, seconds: float, **kwargs) -> None:
+    name = _EVENTS.get(event)
+    if name and _current:
+        c = _current[-1].data["compilations"]
+        c[f"{name}_s"] += seconds
+        if name == "backend_compile":
+            c["programs"] += 1
+
+
 class Record:
     def __init__(self, out: Path, stage: str, sizes: dict, dry_run: bool):
+        import jax
+
         self.path = Path(out) / f"{stage}.json"
         self.data = {"stage": stage, "dry_run": dry_run, "complete": False, "machine": machine(), "sizes": sizes,
+                     "compilations": {"programs": 0, "backend_compile_s": 0.0, "trace_s": 0.0, "lowering_s": 0.0},
                      "rows": []}  # fmt: skip
+        if not _current:
+            jax.monitoring.register_event_duration_secs_listener(_on_event)
+        _current[:] = [self]
         self._write()
 
     def add(self, row: dict) -> None:

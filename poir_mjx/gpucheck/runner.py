@@ -21,17 +21,18 @@ from poir_mjx.gpucheck import record
 from poir_mjx.gpucheck.sizes import DRY, GPU, STAGES, deadline
 
 
-def run_stage(stage: str, dry_run: bool, out: Path, scratch: Path) -> None:
-    from poir_mjx.gpucheck.stages import STAGE_FUNCTIONS
+def run_stage(stage: str, dry_run: bool, out: Path, scratch: Path, demos: Path = Path(".gpu-demos")) -> None:
+    from poir_mjx.gpucheck.stages import STAGE_FUNCTIONS, Where
 
     sizes = DRY if dry_run else GPU
     rec = record.Record(out, stage, dataclasses.asdict(sizes), dry_run)
-    STAGE_FUNCTIONS[stage](sizes, rec, scratch)
+    STAGE_FUNCTIONS[stage](sizes, rec, Where(scratch, demos))
     rec.done()
 
 
-def stage_command(stage: str, out: Path, scratch: Path) -> list[str]:
-    return [sys.executable, "-m", "poir_mjx.cli", "gpu-check", "--only", stage, "--out", str(out), "--scratch", str(scratch)]
+def stage_command(stage: str, out: Path, scratch: Path, demos: Path) -> list[str]:
+    return [sys.executable, "-m", "poir_mjx.cli", "gpu-check", "--only", stage, "--out", str(out), "--scratch",
+            str(scratch), "--demos", str(demos)]  # fmt: skip
 
 
 def run_limited(cmd: list[str], limit: float) -> tuple[str, float]:
@@ -47,7 +48,8 @@ def run_limited(cmd: list[str], limit: float) -> tuple[str, float]:
     return ("complete" if rc == 0 else f"failed (exit status {rc})"), time.monotonic() - t0
 
 
-def run_all(out: Path, scratch: Path, dry_run: bool, stages: tuple[str, ...] = STAGES) -> int:
+def run_all(out: Path, scratch: Path, dry_run: bool, stages: tuple[str, ...] = STAGES,
+            demos: Path = Path(".gpu-demos")) -> int:  # fmt: skip
     """Every stage in `stages` (priority order) not complete in `out` already; returns 1 if one failed."""
     sizes = DRY if dry_run else GPU
     out.mkdir(parents=True, exist_ok=True)
@@ -64,10 +66,10 @@ def run_all(out: Path, scratch: Path, dry_run: bool, stages: tuple[str, ...] = S
             continue
         if dry_run:
             t0 = time.monotonic()
-            run_stage(stage, True, out, scratch)
+            run_stage(stage, True, out, scratch, demos)
             status[stage] = ("complete", time.monotonic() - t0)
         else:
-            status[stage] = run_limited(stage_command(stage, out, scratch), min(deadline(sizes, stage), left))
+            status[stage] = run_limited(stage_command(stage, out, scratch, demos), min(deadline(sizes, stage), left))
         print(f"gpu-check: {stage} {status[stage][0]} in {status[stage][1]:.0f} s", flush=True)
         write_summary(out, status, dry_run)
     write_summary(out, status, dry_run)
@@ -91,9 +93,12 @@ def write_summary(out: Path, status: dict, dry_run: bool) -> None:
         if data is None:
             lines.append("")
             continue
-        m = data["machine"]
+        m, c = data["machine"], data.get("compilations") or {}
         lines += ["", f"Device {m['device']} (driver {m['driver']}), {m['versions']}, matmul precision "
                       f"{m['matmul_precision']}, x64 {m['x64']}. Command: `{m['command']}`.", ""]  # fmt: skip
+        if c:
+            lines += [f"Compiled {c['programs']} programs: {c['backend_compile_s']:.0f} s in XLA, "
+                      f"{c['trace_s']:.0f} s tracing, {c['lowering_s']:.0f} s lowering.", ""]  # fmt: skip
         rows = data["rows"]
         if rows:
             cols = list(rows[0])

@@ -1,12 +1,14 @@
-"""The five stages of a GPU check, in priority order; each adds rows to its Record as it measures them.
+"""The six stages of a GPU check, in priority order; each adds rows to its Record as it measures them.
 
 1. env: Lift MJX control steps/s per batch size (the reset compiled once, at the largest batch).
-2. planner: the POIR planner (DRIL, L2, MOREL) per batch: Hz per episode, FLOPs per call (XLA's cost
+2. e2e: EBC and POIR-DRIL evaluated episodes per minute on Lift (compiled ahead, timed apart), trained on the
+   demos carried from a CPU (recorded in MJX where none were carried).
+3. cell: one paper-size cell (PickPlaceCan at sigma_init 0.1, K 27, 5x300, N 4000, H 5): EBC, POIR-random and
+   POIR-DRIL on the same episodes in MJX, trained on the device from the carried demos, one method at a time.
+4. expert: the scripted expert's success in MJX (NutAssemblySquare with float64 physics).
+5. sweep: a small Lift sweep (EBC, POIR-DRIL) whose batch is the e2e stage's, reusing its checkpoints.
+6. planner: the POIR planner (DRIL, L2, MOREL) per batch: Hz per episode, FLOPs per call (XLA's cost
    analysis) and the achieved FLOP/s against the device's float32 peak where known.
-3. e2e: EBC and POIR-DRIL evaluated episodes per minute on Lift, demos recorded in MJX.
-4. sweep: a small Lift sweep (EBC, POIR-DRIL) whose batch is the e2e stage's, reusing its demos,
-   checkpoints and compiled evaluators.
-5. expert: the scripted expert's success in MJX.
 """
 
 from __future__ import annotations
@@ -22,6 +24,19 @@ import numpy as np
 from poir_mjx.gpucheck.record import Record
 from poir_mjx.gpucheck.sizes import Sizes, overrides
 
+
+@dataclasses.dataclass(frozen=True)
+class Where:
+    scratch: Path  # demos, checkpoints and run folders made on the device
+    demos: Path  # demo files carried from a CPU, <task>.hdf5
+
+    def demo_file(self, task: str) -> Path | None:
+        f = self.demos / f"{task}.hdf5"
+        return f if f.is_file() else None
+
+    def demo_files(self, *tasks: str) -> dict[str, str]:
+        return {t: str(self.demo_file(t)) for t in tasks if self.demo_file(t) is not None}
+
 # Dense float32 (no tensor cores), vendor datasheets: the ceiling of full-precision matmuls.
 PEAK_FP32 = {"H200": 67e12, "H100": 67e12, "A100": 19.5e12, "L40S": 91.6e12}
 
@@ -31,7 +46,7 @@ def peak_flops() -> float | None:
     return next((v for k, v in PEAK_FP32.items() if k in kind), None)
 
 
-def env_stage(sizes: Sizes, rec: Record, scratch: Path) -> None:
+def env_stage(sizes: Sizes, rec: Record, where: Where) -> None:
     from poir_mjx.envs.env import batched, make_env, make_params
 
     env = make_env("lift")
@@ -63,7 +78,7 @@ def _flops(compiled) -> float | None:
     return float(cost["flops"]) if isinstance(cost, dict) and "flops" in cost else None
 
 
-def planner_stage(sizes: Sizes, rec: Record, scratch: Path) -> None:
+def planner_stage(sizes: Sizes, rec: Record, where: Where) -> None:
     from poir_mjx.bench.flops import planner_matmul_flops
     from poir_mjx.bench.planner import ACT, OBS, random_params
     from poir_mjx.core.agent import POIR
@@ -96,13 +111,37 @@ def planner_stage(sizes: Sizes, rec: Record, scratch: Path) -> None:
                      "fraction_of_peak": flops / dt / peak if peak else None})  # fmt: skip
 
 
-def e2e_stage(sizes: Sizes, rec: Record, scratch: Path) -> None:
+def e2e_stage(sizes: Sizes, rec: Record, where: Where) -> None:
     from poir_mjx.bench.e2e import bench
 
     for method in ("EBC", "POIR-DRIL"):
         rec.add(bench(sizes.e2e_preset, method, sizes.e2e_episodes, sizes.e2e_steps, sizes.num_demos,
                       demo_simulator="mjx", demo_batch=sizes.demo_batch, overrides=overrides(sizes),
-                      data_dir=scratch / "data", ckpt_dir=scratch / "checkpoints"))  # fmt: skip
+                      data_dir=where.scratch / "data", ckpt_dir=where.scratch / "checkpoints",
+                      demo_file=where.demo_file("lift")))  # fmt: skip
+
+
+def cell_stage(sizes: Sizes, rec: Record, where: Where) -> None:
+    """The paper-size cell, one method at a time (each its own run folder, the same episode keys: paired), a row
+    as each method's cell is written, so a deadline keeps the finished methods."""
+    from poir_mjx.sweep.artifacts import cell_path
+    from poir_mjx.sweep.config import SweepConfig
+    from poir_mjx.sweep.run import run_sweep
+
+    task = sizes.cell_task
+    for m in sizes.cell_methods:
+        cfg = SweepConfig(name=f"gpu-check-cell-{m.lower()}", preset=sizes.cell_preset, tasks=(task,), methods=(m,),
+                          sigma_init=(sizes.cell_sigma_init,), episodes=sizes.cell_episodes, max_steps=sizes.e2e_steps,
+                          num_demos=sizes.num_demos, demo_simulator="mjx", demo_batch=sizes.demo_batch,
+                          demo_files=where.demo_files(task), simulator="mjx", overrides=overrides(sizes))  # fmt: skip
+        t0 = time.perf_counter()
+        out = run_sweep(cfg, where.scratch / "results", where.scratch / "data", where.scratch / "checkpoints",
+                        progress=False, replace_config=True)  # fmt: skip
+        cell = json.loads(cell_path(out, task, m, sizes.cell_sigma_init, 0.0, 0).read_text())
+        rec.add({"task": task, "preset": sizes.cell_preset, "method": m, "sigma_init": sizes.cell_sigma_init,
+                 "successes": cell["successes"], "episodes": cell["episodes"], "wilson95": cell["wilson95"],
+                 "demos": cell["data"].get("source"), "demo_sha256": cell["data"].get("sha256"),
+                 "training_and_evaluation_s": time.perf_counter() - t0})  # fmt: skip
 
 
 def sweep_config(sizes: Sizes):
@@ -114,13 +153,13 @@ def sweep_config(sizes: Sizes):
                        demo_batch=sizes.demo_batch, simulator="mjx", overrides=overrides(sizes))  # fmt: skip
 
 
-def sweep_stage(sizes: Sizes, rec: Record, scratch: Path) -> None:
+def sweep_stage(sizes: Sizes, rec: Record, where: Where) -> None:
     from poir_mjx.sweep.artifacts import cell_path
     from poir_mjx.sweep.run import run_sweep
 
-    cfg = sweep_config(sizes)
+    cfg = dataclasses.replace(sweep_config(sizes), demo_files=where.demo_files("lift"))
     t0 = time.perf_counter()
-    out = run_sweep(cfg, scratch / "results", scratch / "data", scratch / "checkpoints", progress=False,
+    out = run_sweep(cfg, where.scratch / "results", where.scratch / "data", where.scratch / "checkpoints", progress=False,
                     replace_config=True)  # fmt: skip
     wall = time.perf_counter() - t0
     for m in cfg.methods:
@@ -130,13 +169,16 @@ def sweep_stage(sizes: Sizes, rec: Record, scratch: Path) -> None:
                      "wilson95": cell["wilson95"], "simulator": cell.get("simulator"), "sweep_wall_s": wall})  # fmt: skip
 
 
-def expert_stage(sizes: Sizes, rec: Record, scratch: Path) -> None:
+def expert_stage(sizes: Sizes, rec: Record, where: Where) -> None:
+    from poir_mjx.compat import enable_x64
     from poir_mjx.eval.expert_success import mjx_success
 
     for task in sizes.expert_tasks:
-        r = mjx_success(task, sizes.expert_episodes, seed=1, sigma_init=0.02, steps=sizes.expert_steps or None)
-        rec.add({"task": task, "sigma_init": 0.02, **r})
+        x64 = task == "nut_assembly_square"  # its grasp needs float64 physics (docs/expert-data.md)
+        with enable_x64(x64):
+            r = mjx_success(task, sizes.expert_episodes, seed=1, sigma_init=0.02, steps=sizes.expert_steps or None)
+        rec.add({"task": task, "sigma_init": 0.02, "x64": x64, **r})
 
 
-STAGE_FUNCTIONS = {"env": env_stage, "planner": planner_stage, "e2e": e2e_stage, "sweep": sweep_stage,
-                   "expert": expert_stage}  # fmt: skip
+STAGE_FUNCTIONS = {"env": env_stage, "e2e": e2e_stage, "cell": cell_stage, "expert": expert_stage,
+                   "sweep": sweep_stage, "planner": planner_stage}  # fmt: skip

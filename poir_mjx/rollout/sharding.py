@@ -24,18 +24,21 @@ def replicate(tree):
     return jax.device_put(tree, NamedSharding(episode_mesh(), PartitionSpec()))
 
 
-def run_sharded(fn, params, keys: jax.Array, env_params):
-    """Pad the batch to a multiple of the device count, shard it over the mesh, run `fn`, unpad (on device)."""
+def shard_inputs(params, keys: jax.Array, env_params):
+    """(params replicated, keys and env params padded to a multiple of the device count and sharded over the mesh)."""
     n = keys.shape[0]
     pad = (-n) % jax.device_count()
     if pad:
         keys = jnp.concatenate([keys, keys[:pad]])
         env_params = jax.tree_util.tree_map(lambda x: jnp.concatenate([x, x[:pad]]), env_params)
     sharding = NamedSharding(episode_mesh(), PartitionSpec("episodes"))
-    keys = jax.device_put(keys, sharding)
-    env_params = jax.device_put(env_params, sharding)
-    out = fn(replicate(params), keys, env_params)
-    return jax.tree_util.tree_map(lambda v: v[:n], out)
+    return replicate(params), jax.device_put(keys, sharding), jax.device_put(env_params, sharding)
+
+
+def run_sharded(fn, params, keys: jax.Array, env_params):
+    """Pad the batch to a multiple of the device count, shard it over the mesh, run `fn`, unpad (on device)."""
+    out = fn(*shard_inputs(params, keys, env_params))
+    return jax.tree_util.tree_map(lambda v: v[: keys.shape[0]], out)
 
 
 def run_batch(fn, params, keys: jax.Array, env_params) -> dict[str, np.ndarray]:
