@@ -28,6 +28,7 @@ from poir_mjx.envs import observation
 from poir_mjx.envs.layout import ACTION_SIZE, OBS_KEYS, obs_sizes
 from poir_mjx.envs.model import ModelFileError, load_model, load_variants, model_indices
 from poir_mjx.envs.observation import flatten_obs
+from poir_mjx.envs.physics import REFERENCE, PhysicsConfig, as_physics
 from poir_mjx.envs.placement import sample_object_pose
 from poir_mjx.envs.tasks import check_task
 from poir_mjx.envs.variants import ModelVariants
@@ -80,6 +81,7 @@ class TaskEnv:
     model: mjx.Model
     meta: dict
     variants: ModelVariants | None = None  # per-episode object sizes (Lift), variant 0 = `model`
+    physics: PhysicsConfig = REFERENCE  # solver settings (physics.py), already in `model`'s options
 
     def model_for(self, variant) -> mjx.Model:
         """The episode's model: `model`, or its object-size variant (``info["variant"]``)."""
@@ -236,32 +238,33 @@ class TaskEnv:
         )
 
 
-def make_env(task: str, envs_dir: str | None = None) -> TaskEnv:
-    """The MJX environment for `task` (one of poir_mjx.envs.tasks.TASKS), in the current float precision.
+def make_env(task: str, envs_dir: str | None = None, physics: PhysicsConfig | str | None = None) -> TaskEnv:
+    """The MJX environment for `task` (one of poir_mjx.envs.tasks.TASKS), in the current float precision, with
+    `physics` (a PhysicsConfig or a preset name of ``physics.PHYSICS_PRESETS``; None: today's, "reference").
 
     The MJX model's arrays take jax's default float (float64 inside ``compat.enable_x64()``), so one
-    environment is kept per task and precision.
+    environment is kept per task, precision and physics.
     """
-    return _make_env(task, envs_dir, x64_enabled())
+    return _make_env(task, envs_dir, x64_enabled(), as_physics(physics))
 
 
 @functools.lru_cache(maxsize=None)
-def _make_env(task: str, envs_dir: str | None, x64: bool) -> TaskEnv:
+def _make_env(task: str, envs_dir: str | None, x64: bool, physics: PhysicsConfig = REFERENCE) -> TaskEnv:
     check_task(task)
-    mj_model, meta = load_model(task, envs_dir)
+    mj_model, meta = load_model(task, envs_dir, physics)
     model = mjx.put_model(mj_model)
-    variants = load_variants(task, envs_dir, mj_model, model, meta)
-    return TaskEnv(task=task, mj_model=mj_model, model=model, meta=meta, variants=variants)
+    variants = load_variants(task, envs_dir, mj_model, model, meta, physics)
+    return TaskEnv(task=task, mj_model=mj_model, model=model, meta=meta, variants=variants, physics=physics)
 
 
-def batched(task: str, envs_dir: str | None = None):
+def batched(task: str, envs_dir: str | None = None, physics: PhysicsConfig | str | None = None):
     """(reset, reset_to, step) jitted and vmapped over episodes; one compilation per batch shape."""
-    return _batched(task, envs_dir, x64_enabled())
+    return _batched(task, envs_dir, x64_enabled(), as_physics(physics))
 
 
 @functools.lru_cache(maxsize=None)
-def _batched(task: str, envs_dir: str | None, x64: bool):
-    env = _make_env(task, envs_dir, x64)
+def _batched(task: str, envs_dir: str | None, x64: bool, physics: PhysicsConfig = REFERENCE):
+    env = _make_env(task, envs_dir, x64, physics)
     return (
         jax.jit(jax.vmap(env.reset)),
         jax.jit(jax.vmap(env.reset_to)),

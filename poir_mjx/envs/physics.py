@@ -1,0 +1,67 @@
+"""The MJX physics settings of an environment: solver budget and the optional cost cuts, as one typed config.
+
+``PhysicsConfig()`` is today's physics ("reference": robosuite's solver options as exported, unpatched MJX).
+``physics_preset("fast")`` is the cheaper setting measured in ``make bench-env`` (results/bench/); every cut is
+its own field, so each stays reachable alone. The settings reach the model through the MjSpec before it is
+compiled (``edit_spec``: solver options).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import TYPE_CHECKING, Literal
+
+from poir_mjx.typed_config import ConfigError, check
+
+if TYPE_CHECKING:  # no mujoco import here: the option dataclasses (poir_mjx/options.py) name the presets
+    import mujoco
+
+PhysicsPresetName = Literal["reference", "fast"]
+
+
+@dataclasses.dataclass(frozen=True)
+class PhysicsConfig:
+    """MJX solver settings of a TaskEnv (the default is today's physics, robosuite's options)."""
+
+    iterations: int = 100
+    """Newton iterations at most per physics substep (robosuite and the exported model: 100). Measured on Lift:
+    2.0 on average, 9 at most (issue 42)."""
+    ls_iterations: int = 50
+    """Line-search steps at most per Newton iteration (exported model: 50; measured about 5.3 on average)."""
+    tolerance: float = 1e-8
+    """Solver tolerance (relative cost improvement and gradient) that ends Newton early (exported model: 1e-8)."""
+
+
+REFERENCE = PhysicsConfig()
+# The cheaper physics: iterations sized from the measured need (Newton: 2 on average, 9 at most; line search
+# about 5 per iteration), with margin. Measured against robosuite in results/bench/.
+PHYSICS_PRESETS: dict[str, PhysicsConfig] = {
+    "reference": REFERENCE,
+    "fast": PhysicsConfig(iterations=10, ls_iterations=8),
+}
+
+
+def physics_preset(name: str) -> PhysicsConfig:
+    """The named physics (``PHYSICS_PRESETS``); an unknown name is a ConfigError listing the known ones."""
+    if name not in PHYSICS_PRESETS:
+        raise ConfigError(f"physics: unknown preset {name!r}; expected one of {', '.join(PHYSICS_PRESETS)}")
+    return PHYSICS_PRESETS[name]
+
+
+def as_physics(physics: PhysicsConfig | str | None) -> PhysicsConfig:
+    """A checked PhysicsConfig from a config, a preset name, or None (the reference)."""
+    if physics is None:
+        return REFERENCE
+    if isinstance(physics, str):
+        return physics_preset(physics)
+    if not isinstance(physics, PhysicsConfig):
+        raise ConfigError(f"physics: expected a PhysicsConfig or a preset name, got {physics!r}")
+    return check(physics, "physics.")
+
+
+def edit_spec(spec: mujoco.MjSpec, physics: PhysicsConfig) -> mujoco.MjSpec:
+    """Write the solver options into a task's spec before compiling."""
+    spec.option.iterations = physics.iterations
+    spec.option.ls_iterations = physics.ls_iterations
+    spec.option.tolerance = physics.tolerance
+    return spec
