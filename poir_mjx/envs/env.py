@@ -28,7 +28,7 @@ from poir_mjx.envs import observation
 from poir_mjx.envs.layout import ACTION_SIZE, OBS_KEYS, obs_sizes
 from poir_mjx.envs.model import ModelFileError, load_model, load_variants, model_indices
 from poir_mjx.envs.observation import flatten_obs
-from poir_mjx.envs.physics import REFERENCE, PhysicsConfig, as_physics
+from poir_mjx.envs.physics import REFERENCE, PhysicsConfig, as_physics, solver_scope
 from poir_mjx.envs.placement import sample_object_pose
 from poir_mjx.envs.tasks import check_task
 from poir_mjx.envs.variants import ModelVariants
@@ -122,7 +122,8 @@ class TaskEnv:
         i = self._idx
         m = self.model_for(variant)
         d = mjx.make_data(self.model).replace(qpos=jnp.asarray(qpos, float_dtype()))
-        d = mjx.forward(m, d)
+        with solver_scope(self.physics):
+            d = mjx.forward(m, d)
         info = {
             "variant": jnp.asarray(variant, jnp.int32),
             "rng": rng,
@@ -216,7 +217,8 @@ class TaskEnv:
             return (d, goal_pos, goal_ori), None
 
         init = (state.data, jnp.zeros(3), jnp.eye(3))
-        (d, _, _), _ = jax.lax.scan(substep, init, jnp.arange(self.meta["substeps"]))
+        with solver_scope(self.physics):  # MJX's solver as the physics config asks (physics.py)
+            (d, _, _), _ = jax.lax.scan(substep, init, jnp.arange(self.meta["substeps"]))
 
         diverged = ~(jnp.all(jnp.isfinite(d.qpos)) & jnp.all(jnp.isfinite(d.qvel)))
         step = state.info["step"] + 1

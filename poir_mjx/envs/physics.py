@@ -3,11 +3,13 @@
 ``PhysicsConfig()`` is today's physics ("reference": robosuite's solver options as exported, unpatched MJX).
 ``physics_preset("fast")`` is the cheaper setting measured in ``make bench-env`` (results/bench/); every cut is
 its own field, so each stays reachable alone. The settings reach the model through the MjSpec before it is
-compiled (``edit_spec``: solver options).
+compiled (``edit_spec``: solver options) and MJX's solver through ``solver_patch`` while a step is traced
+(``solver_scope``).
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 from typing import TYPE_CHECKING, Literal
 
@@ -30,6 +32,15 @@ class PhysicsConfig:
     """Line-search steps at most per Newton iteration (exported model: 50; measured about 5.3 on average)."""
     tolerance: float = 1e-8
     """Solver tolerance (relative cost improvement and gradient) that ends Newton early (exported model: 1e-8)."""
+    linesearch_loop: Literal["scan", "while"] = "scan"
+    """"scan": MJX's own line search (a ``lax.scan`` over ``lax.cond``, which under ``vmap`` runs all
+    ``ls_iterations`` steps); "while": a ``lax.while_loop`` (``solver_patch``: the same steps and maths, ends when
+    the batch's slowest search has converged; not reverse-mode differentiable)."""
+
+    @property
+    def patched(self) -> bool:
+        """Whether MJX's solver is patched (``solver_patch``) for this config."""
+        return self.linesearch_loop != "scan"
 
 
 REFERENCE = PhysicsConfig()
@@ -56,7 +67,12 @@ def as_physics(physics: PhysicsConfig | str | None) -> PhysicsConfig:
         return physics_preset(physics)
     if not isinstance(physics, PhysicsConfig):
         raise ConfigError(f"physics: expected a PhysicsConfig or a preset name, got {physics!r}")
-    return check(physics, "physics.")
+    check(physics, "physics.")
+    if physics.patched:  # refused here, before anything is built, on an MJX the patch was not written for
+        from poir_mjx.envs import solver_patch
+
+        solver_patch.check_version()
+    return physics
 
 
 def edit_spec(spec: mujoco.MjSpec, physics: PhysicsConfig) -> mujoco.MjSpec:
@@ -65,3 +81,12 @@ def edit_spec(spec: mujoco.MjSpec, physics: PhysicsConfig) -> mujoco.MjSpec:
     spec.option.ls_iterations = physics.ls_iterations
     spec.option.tolerance = physics.tolerance
     return spec
+
+
+def solver_scope(physics: PhysicsConfig):
+    """The scope in which an environment's MJX calls are traced: MJX's solver patched as `physics` asks, or as is."""
+    if not physics.patched:
+        return contextlib.nullcontext()
+    from poir_mjx.envs import solver_patch
+
+    return solver_patch.patched(while_linesearch=physics.linesearch_loop == "while")

@@ -37,16 +37,23 @@ PRE_CONTACT_STEPS, PRE_CONTACT_TOL = 25, 2e-3
 
 
 @functools.lru_cache(maxsize=None)
-def replay(task):
-    """robosuite's rollout and the same actions replayed in MJX (lane 0) beside a random episode."""
+def robosuite_rollout(task):
+    """robosuite's grasp-and-lift rollout (seed 1), recorded once per task whatever MJX physics replays it."""
+    return robosuite_grasp_rollout(task, make_env(task).mj_model, seed=1)
+
+
+@functools.lru_cache(maxsize=None)
+def replay(task, physics=None):
+    """robosuite's rollout and the same actions replayed in MJX (lane 0) beside a random episode, with MJX's
+    `physics` (a poir_mjx.envs.physics.PhysicsConfig or preset name; None: the reference)."""
     with enable_x64() if task in FLOAT64_FIDELITY else contextlib.nullcontext():
-        return _replay(task)
+        return _replay(task, physics)
 
 
-def _replay(task):
-    env = make_env(task)
-    _, reset_to, step = batched(task)
-    ref = robosuite_grasp_rollout(task, env.mj_model, seed=1)
+def _replay(task, physics):
+    env = make_env(task, physics=physics)
+    _, reset_to, step = batched(task, physics=physics)
+    ref = robosuite_rollout(task)
     params = make_params([0.0, 0.3], [0.0, 0.1])
     rand_qpos = jax.jit(jax.vmap(env.sample_qpos))(jax.random.split(jax.random.PRNGKey(3), 2), params)
     qpos = jnp.stack([jnp.asarray(ref.qpos0, rand_qpos.dtype), rand_qpos[1]])
