@@ -3,7 +3,7 @@
 ``PhysicsConfig()`` is today's physics ("reference": robosuite's solver options as exported, unpatched MJX).
 ``physics_preset("fast")`` is the cheaper setting measured in ``make bench-env`` (results/bench/); every cut is
 its own field, so each stays reachable alone. The settings reach the model through the MjSpec before it is
-compiled (``edit_spec``: solver options) and MJX's solver through ``solver_patch`` while a step is traced
+compiled (``edit_spec``: solver options, floor contacts) and MJX's solver through ``solver_patch`` while a step is traced
 (``solver_scope``).
 """
 
@@ -36,6 +36,10 @@ class PhysicsConfig:
     """"scan": MJX's own line search (a ``lax.scan`` over ``lax.cond``, which under ``vmap`` runs all
     ``ls_iterations`` steps); "while": a ``lax.while_loop`` (``solver_patch``: the same steps and maths, ends when
     the batch's slowest search has converged; not reverse-mode differentiable)."""
+    floor_contacts: bool = True
+    """False: the floor plane collides with nothing, which drops its candidate pairs (6 for Lift and PickPlaceCan,
+    10 for NutAssemblySquare: the gripper's five collision geoms, out of the arm's reach, and the object's geoms,
+    which reach the floor only after leaving the table). A load-time edit, envs/README.md."""
 
     @property
     def patched(self) -> bool:
@@ -76,10 +80,15 @@ def as_physics(physics: PhysicsConfig | str | None) -> PhysicsConfig:
 
 
 def edit_spec(spec: mujoco.MjSpec, physics: PhysicsConfig) -> mujoco.MjSpec:
-    """Write the solver options into a task's spec before compiling."""
+    """Write the solver options (and, if asked, the floor's collision flags) into a task's spec before compiling."""
     spec.option.iterations = physics.iterations
     spec.option.ls_iterations = physics.ls_iterations
     spec.option.tolerance = physics.tolerance
+    if not physics.floor_contacts:
+        floor = spec.geom("floor")
+        if floor is None:
+            raise ConfigError("physics.floor_contacts: the model has no geom named 'floor'")
+        floor.contype, floor.conaffinity = 0, 0
     return spec
 
 

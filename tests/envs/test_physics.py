@@ -47,3 +47,21 @@ def test_bad_physics_is_one_error_naming_the_field():
     with pytest.raises(ConfigError, match="unknown preset 'fastest'"):
         make_env("lift", physics="fastest")
     assert set(PHYSICS_PRESETS) == {"reference", "fast"}
+
+
+@pytest.mark.parametrize("task, floor_pairs", [("lift", 6), ("pick_place_can", 6), ("nut_assembly_square", 10)])
+def test_floor_contacts_off_drops_exactly_the_floor_pairs(task, floor_pairs):
+    import mujoco
+    from mujoco.mjx._src.collision_driver import geom_pairs
+
+    def pairs(m):
+        return {(int(a), int(b)) for a, b, _ in geom_pairs(m)}
+
+    ref, off = make_env(task).mj_model, make_env(task, physics=PhysicsConfig(floor_contacts=False)).mj_model
+    floor = mujoco.mj_name2id(ref, mujoco.mjtObj.mjOBJ_GEOM, "floor")
+    dropped = pairs(ref) - pairs(off)
+    assert len(dropped) == floor_pairs and all(floor in p for p in dropped)
+    assert pairs(off) < pairs(ref)
+    gripper = {g for p in dropped for g in p if mujoco.mj_id2name(ref, mujoco.mjtObj.mjOBJ_GEOM, g).startswith("gripper0_")}
+    assert len(gripper) == 5  # hand box, two finger meshes, two pads; the rest are the object's geoms
+    assert off.ngeom == ref.ngeom and off.nbody == ref.nbody  # nothing else in the model changes
