@@ -36,6 +36,10 @@ class PhysicsConfig:
     """"scan": MJX's own line search (a ``lax.scan`` over ``lax.cond``, which under ``vmap`` runs all
     ``ls_iterations`` steps); "while": a ``lax.while_loop`` (``solver_patch``: the same steps and maths, ends when
     the batch's slowest search has converged; not reverse-mode differentiable)."""
+    cone_hessian: Literal["dense", "blocks"] = "dense"
+    """Newton's Hessian with elliptic cones: "dense" is MJX's (an nefc x nefc matrix assembled by one scatter per
+    contact, then J^T C J); "blocks" adds J_c^T H_c J_c per contact to J^T diag(D active) J (``solver_patch``:
+    the same maths in another summation order)."""
     floor_contacts: bool = True
     """False: the floor plane collides with nothing, which drops its candidate pairs (6 for Lift and PickPlaceCan,
     10 for NutAssemblySquare: the gripper's five collision geoms, out of the arm's reach, and the object's geoms,
@@ -44,7 +48,7 @@ class PhysicsConfig:
     @property
     def patched(self) -> bool:
         """Whether MJX's solver is patched (``solver_patch``) for this config."""
-        return self.linesearch_loop != "scan"
+        return self.linesearch_loop != "scan" or self.cone_hessian != "dense"
 
 
 REFERENCE = PhysicsConfig()
@@ -98,4 +102,5 @@ def solver_scope(physics: PhysicsConfig):
         return contextlib.nullcontext()
     from poir_mjx.envs import solver_patch
 
-    return solver_patch.patched(while_linesearch=physics.linesearch_loop == "while")
+    return solver_patch.patched(while_linesearch=physics.linesearch_loop == "while",
+                                block_hessian=physics.cone_hessian == "blocks")  # fmt: skip

@@ -18,6 +18,7 @@ from poir_mjx.envs.physics import REFERENCE
 from tests.envs.test_env import replay
 
 WHILE = dataclasses.replace(REFERENCE, linesearch_loop="while")
+BLOCKS = dataclasses.replace(REFERENCE, cone_hessian="blocks")
 # float32 tolerance of a patched replay against the unpatched one (metres, max over both lanes). The patch
 # computes the same operations, compiled differently; float32 rounding then differs and the grasp (lane 0
 # closes the fingers on the cube at steps 45-55) amplifies it. Measured on the 2-core CPU: MJX's own step
@@ -50,10 +51,14 @@ def test_while_loop_bounded_matches_mjx_scan_under_vmap():
 def test_patch_is_scoped_to_its_trace():
     from mujoco.mjx._src import solver
 
-    original = solver._while_loop_scan
+    original, gradient = solver._while_loop_scan, solver._update_gradient
     with solver_patch.patched(while_linesearch=True):
         assert solver._while_loop_scan is solver_patch.while_loop_bounded
-    assert solver._while_loop_scan is original
+        assert solver._update_gradient is gradient
+    with solver_patch.patched(while_linesearch=False, block_hessian=True):
+        assert solver._while_loop_scan is original
+        assert solver._update_gradient.func is solver_patch.update_gradient_blocks
+    assert (solver._while_loop_scan, solver._update_gradient) == (original, gradient)
     with pytest.raises(RuntimeError), solver_patch.patched(while_linesearch=True):
         raise RuntimeError("restored on errors too")
     assert solver._while_loop_scan is original
@@ -76,6 +81,15 @@ def test_while_linesearch_step_equals_mjx_on_lift_replay():
     _, _, _, eef0, obj0, succ0, end0 = replay("lift")
     _, _, _, eef1, obj1, succ1, end1 = replay("lift", WHILE)
     assert_same_physics("while line search", (eef0, obj0, succ0), (eef1, obj1, succ1))
+    assert not np.any(np.asarray(end1.info["diverged"]))
+
+
+@pytest.mark.slow
+@pytest.mark.needs_robosuite
+def test_block_cone_hessian_step_equals_mjx_on_lift_replay():
+    _, _, _, eef0, obj0, succ0, _ = replay("lift")
+    _, _, _, eef1, obj1, succ1, end1 = replay("lift", BLOCKS)
+    assert_same_physics("cone Hessian per contact block", (eef0, obj0, succ0), (eef1, obj1, succ1))
     assert not np.any(np.asarray(end1.info["diverged"]))
 
 
