@@ -53,10 +53,12 @@ class PhysicsConfig:
 
 REFERENCE = PhysicsConfig()
 # The cheaper physics: iterations sized from the measured need (Newton: 2 on average, 9 at most; line search
-# about 5 per iteration), with margin. Measured against robosuite in results/bench/.
+# about 5 per iteration), with margin, and every same-maths cut (the solver patch, the floor's pairs). Not the
+# default: measured against the reference and robosuite in results/bench/physics-cpu.md.
 PHYSICS_PRESETS: dict[str, PhysicsConfig] = {
     "reference": REFERENCE,
-    "fast": PhysicsConfig(iterations=10, ls_iterations=8),
+    "fast": PhysicsConfig(iterations=10, ls_iterations=8, linesearch_loop="while", cone_hessian="blocks",
+                          floor_contacts=False),  # fmt: skip
 }
 
 

@@ -24,6 +24,7 @@ def test_reference_is_todays_physics_and_the_default():
 def test_fast_preset_reaches_the_mjx_model_and_every_size_variant():
     fast = physics_preset("fast")
     assert (fast.iterations, fast.ls_iterations) == (10, 8)
+    assert (fast.linesearch_loop, fast.cone_hessian, fast.floor_contacts) == ("while", "blocks", False)
     env = make_env("lift", physics="fast")
     assert env.physics == fast
     assert (env.mj_model.opt.iterations, env.mj_model.opt.ls_iterations) == (10, 8)
