@@ -13,6 +13,7 @@ import tyro
 
 from poir_mjx.flags import flags_type
 from poir_mjx.core.config import PRESETS, REWARDS, PlannerConfig, POIRConfig
+from poir_mjx.envs.physics import PhysicsPresetName
 from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS, TASKS
 
 Task = Literal[TASKS]  # type: ignore[valid-type]
@@ -174,6 +175,29 @@ class BenchEnv:
     robosuite_steps: int = 100
     """Timed robosuite control steps (where robosuite is installed)."""
     name: str = "env"
+    """Output file name without extension."""
+
+
+@dataclasses.dataclass(frozen=True)
+class BenchPhysics:
+    """MJX physics presets side by side (make bench-env): ms per physics substep, and the error against robosuite
+    on the fidelity test's grasp-and-lift replay -> <out>/<name>.{json,md}."""
+
+    out: Path = Path("results/bench")
+    """Output folder."""
+    tasks: tuple[Task, ...] = TASKS  # type: ignore[valid-type]
+    """Tasks to time."""
+    physics: tuple[PhysicsPresetName, ...] = ("reference", "fast")
+    """Physics presets (poir_mjx/envs/physics.py), each timed at every batch size."""
+    batch_sizes: tuple[int, ...] = (1, 16, 64)
+    """MJX batch sizes for Lift."""
+    contact_rich_batch_sizes: Optional[tuple[int, ...]] = (1, 16)
+    """Batch sizes for PickPlaceCan and NutAssemblySquare (None: --batch-sizes)."""
+    steps: int = 3
+    """Timed control steps per batch size (after the one that compiles)."""
+    fidelity: bool = True
+    """Also replay robosuite's grasp-and-lift script under each preset (needs robosuite; skipped without it)."""
+    name: str = "physics"
     """Output file name without extension."""
 
 

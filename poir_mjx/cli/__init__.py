@@ -5,7 +5,7 @@
     compare RUN... [--out F]                                             one table across runs (make ablations)
     report [--results results] [--check]                                 results/README.md from the runs (make report)
     video --run RUN --method M [--versus M2] --sigma-init S              a cell's episodes as an MP4 (make video)
-    envs / demos generate / demos success / bench env|planner|e2e|robosuite        the other make targets
+    envs / demos generate / demos success / bench env|physics|planner|e2e|robosuite  the other make targets
 
 Each subcommand is a frozen dataclass of its options (``poir_mjx/options.py``, or the module that
 owns it) and a function taking it; tyro builds the parser from the dataclasses (``--help`` on any
@@ -32,6 +32,7 @@ COMMANDS: tuple[Command, ...] = (
     Command("demos generate", o.DemosGenerate, "poir_mjx.cli.demos:run_generate"),
     Command("demos success", o.DemosSuccess, "poir_mjx.cli.demos:run_success"),
     Command("bench env", o.BenchEnv, "poir_mjx.bench.env:run"),
+    Command("bench physics", o.BenchPhysics, "poir_mjx.bench.physics:run"),
     Command("bench planner", o.BenchPlanner, "poir_mjx.bench.planner:run"),
     Command("bench e2e", o.BenchE2E, "poir_mjx.bench.e2e:run"),
     Command("bench robosuite", o.BenchRobosuite, "poir_mjx.bench.robosuite:run"),
@@ -41,7 +42,7 @@ COMMANDS: tuple[Command, ...] = (
 # Subcommand groups: (help line, the subcommand run when none is named or None).
 GROUPS = {
     "demos": ("Scripted-expert demonstrations (make demos) and the expert's success rate.", "generate"),
-    "bench": ("Throughput benchmarks (make bench-env, bench-planner, bench-e2e, bench-robosuite).", None),
+    "bench": ("Throughput benchmarks (make bench-env: env and physics; bench-planner, bench-e2e, bench-robosuite).", None),
 }
 PROG = "poir-mjx"
 
