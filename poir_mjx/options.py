@@ -193,8 +193,10 @@ class BenchPhysics:
     """MJX batch sizes for Lift."""
     contact_rich_batch_sizes: Optional[tuple[int, ...]] = (1, 16)
     """Batch sizes for PickPlaceCan and NutAssemblySquare (None: --batch-sizes)."""
-    steps: int = 3
-    """Timed control steps per batch size (after the one that compiles)."""
+    steps: int = 2
+    """Timed control steps per round (after the one that compiles)."""
+    rounds: int = 3
+    """Rounds per batch size, the presets timed in alternation (the fastest round counts)."""
     fidelity: bool = True
     """Also replay robosuite's grasp-and-lift script under each preset (needs robosuite; skipped without it)."""
     name: str = "physics"

@@ -10,6 +10,7 @@ Writes ``<out>/<name>.json`` and ``.md`` after every row (an interrupted run kee
 from __future__ import annotations
 
 import json
+import os
 import time
 from pathlib import Path
 
@@ -27,24 +28,49 @@ from poir_mjx.options import BenchPhysics
 from poir_mjx.versions import command_line, stack, stack_line
 
 
-def time_substep(task: str, physics: str, batch: int, steps: int) -> dict:
-    """ms per batched control step and per physics substep, random actions in [-1, 1], sigma_init 0.02."""
-    env = make_env(task, physics=physics)
-    reset, _, step = batched(task, physics=physics)
-    params = make_params(np.full(batch, 0.02))
-    act = jax.random.uniform(jax.random.PRNGKey(1), (steps + 1, batch, env.action_size), minval=-1, maxval=1)
-    t0 = time.perf_counter()
-    state = jax.block_until_ready(step(reset(jax.random.split(jax.random.PRNGKey(0), batch), params), act[0]))
-    compile_s = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    for k in range(1, steps + 1):
-        state = step(state, act[k])
-    jax.block_until_ready(state)
-    dt = (time.perf_counter() - t0) / steps
-    substeps = int(env.meta["substeps"])
-    return {"task": task, "physics": physics, "batch": batch, "steps": steps, "ms_per_control_step": 1e3 * dt,
-            "ms_per_substep": 1e3 * dt / substeps, "substeps": substeps, "compile_and_first_step_s": compile_s,
-            "diverged": int(np.asarray(state.info["diverged"]).sum())}  # fmt: skip
+class Stepper:
+    """One preset's compiled batched step at one batch size, its state advanced by random actions."""
+
+    def __init__(self, task: str, physics: str, batch: int):
+        env = make_env(task, physics=physics)
+        reset, _, self.step = batched(task, physics=physics)
+        self.substeps = int(env.meta["substeps"])
+        self.act = jax.random.uniform(jax.random.PRNGKey(1), (64, batch, env.action_size), minval=-1, maxval=1)
+        self.k = 0
+        t0 = time.perf_counter()
+        params = make_params(np.full(batch, 0.02))
+        self.state = jax.block_until_ready(reset(jax.random.split(jax.random.PRNGKey(0), batch), params))
+        self.advance(1)
+        self.compile_s = time.perf_counter() - t0
+
+    def advance(self, steps: int) -> float:
+        """Seconds per control step over `steps` steps."""
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            self.state = self.step(self.state, self.act[self.k % len(self.act)])
+            self.k += 1
+        jax.block_until_ready(self.state)
+        return (time.perf_counter() - t0) / steps
+
+
+def time_substep(task: str, presets, batch: int, steps: int, rounds: int) -> list[dict]:
+    """ms per batched control step and per physics substep of each preset at one batch size (random actions in
+    [-1, 1], sigma_init 0.02): the presets compiled, then timed in alternation, `rounds` rounds of `steps` steps
+    each, so that other load on the machine falls on all of them alike; the fastest round counts."""
+    steppers = {p: Stepper(task, p, batch) for p in presets}
+    times = {p: [] for p in presets}
+    for _ in range(rounds):
+        for p, st in steppers.items():
+            times[p].append(st.advance(steps))
+    rows = []
+    for p, st in steppers.items():
+        dt, med = min(times[p]), float(np.median(times[p]))
+        rows.append({"task": task, "physics": p, "batch": batch, "steps": steps, "rounds": rounds,
+                     "ms_per_control_step": 1e3 * dt, "ms_per_substep": 1e3 * dt / st.substeps,
+                     "median_ms_per_substep": 1e3 * med / st.substeps, "substeps": st.substeps,
+                     "compile_and_first_step_s": st.compile_s, "load_average_1min": os.getloadavg()[0],
+                     "diverged": int(np.asarray(st.state.info["diverged"]).sum())})  # fmt: skip
+    return rows
 
 
 def robosuite_replay(task: str):
@@ -86,17 +112,21 @@ def to_markdown(res: dict) -> str:
         f"Presets (poir_mjx/envs/physics.py): {presets}.",
         "",
         "One control step = 25 physics substeps; ms per substep = ms per batched control step / 25 (random actions "
-        f"in [-1, 1], sigma_init 0.02, {res['steps']} timed steps after the compiling one).",
+        f"in [-1, 1], sigma_init 0.02). The presets are timed in alternation at each batch size, {res['rounds']} "
+        f"rounds of {res['steps']} control steps; the table gives the fastest round (the median in brackets) and "
+        "the machine's 1-minute load average at the end of the timing.",
         "",
-        "| task | physics | batch | ms per substep | ms per control step | vs reference | compile + first step (s) |",
-        "|---|---|---|---|---|---|---|",
+        "| task | physics | batch | ms per substep (median) | ms per control step | vs reference | compile + first step (s) "
+        "| load |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     base = {(r["task"], r["batch"]): r["ms_per_substep"] for r in res["timing"] if r["physics"] == "reference"}
     for r in res["timing"]:
         ref = base.get((r["task"], r["batch"]))
         speed = f"{ref / r['ms_per_substep']:.2f}x" if ref else "-"
-        lines.append(f"| {r['task']} | {r['physics']} | {r['batch']} | {r['ms_per_substep']:.2f} | "
-                     f"{r['ms_per_control_step']:.1f} | {speed} | {r['compile_and_first_step_s']:.0f} |")  # fmt: skip
+        lines.append(f"| {r['task']} | {r['physics']} | {r['batch']} | {r['ms_per_substep']:.2f} "
+                     f"({r['median_ms_per_substep']:.2f}) | {r['ms_per_control_step']:.1f} | {speed} | "
+                     f"{r['compile_and_first_step_s']:.0f} | {r['load_average_1min']:.1f} |")  # fmt: skip
     if res["fidelity"]:
         lines += [
             "",
@@ -117,7 +147,7 @@ def run(opts: BenchPhysics) -> int:
     from poir_mjx.versions import machine_line
 
     res = {"device": device_name(), "machine": machine_line(), "command": command_line(), "versions": stack(),
-           "stack_line": stack_line(), "x64": x64_enabled(), "steps": opts.steps,
+           "stack_line": stack_line(), "x64": x64_enabled(), "steps": opts.steps, "rounds": opts.rounds,
            "presets": {p: str(physics_preset(p)) for p in opts.physics}, "timing": [], "fidelity": []}  # fmt: skip
     out = Path(opts.out)
 
@@ -129,16 +159,16 @@ def run(opts: BenchPhysics) -> int:
     for task in opts.tasks:
         sizes = opts.batch_sizes if task == "lift" else (opts.contact_rich_batch_sizes or opts.batch_sizes)
         ref = robosuite_replay(task) if fid else None
-        for physics in opts.physics:  # the presets side by side: each batch size under each preset
-            for b in sizes:
-                res["timing"].append(time_substep(task, physics, b, opts.steps))
-                print(f"{task} {physics} batch {b}: {res['timing'][-1]['ms_per_substep']:.2f} ms/substep", flush=True)
-                write()
-            if fid:
-                res["fidelity"].append(fidelity(task, physics, ref))
-                f = res["fidelity"][-1]
-                print(f"{task} {physics}: eef {f['max_eef_error_mm']:.2f} mm, object {f['max_object_error_mm']:.2f} mm",
-                      flush=True)  # fmt: skip
-                write()
+        for b in sizes:  # the presets side by side at each batch size
+            res["timing"] += time_substep(task, opts.physics, b, opts.steps, opts.rounds)
+            for r in res["timing"][-len(opts.physics):]:
+                print(f"{task} {r['physics']} batch {b}: {r['ms_per_substep']:.2f} ms/substep", flush=True)
+            write()
+        for physics in opts.physics if fid else ():
+            res["fidelity"].append(fidelity(task, physics, ref))
+            f = res["fidelity"][-1]
+            print(f"{task} {physics}: eef {f['max_eef_error_mm']:.2f} mm, object {f['max_object_error_mm']:.2f} mm",
+                  flush=True)  # fmt: skip
+            write()
     print(to_markdown(res))
     return 0

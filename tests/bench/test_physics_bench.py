@@ -9,10 +9,10 @@ from poir_mjx.options import BenchPhysics
 
 
 def fake_timing(ms):
-    def time_substep(task, physics, batch, steps):
-        return {"task": task, "physics": physics, "batch": batch, "steps": steps, "substeps": 25,
-                "ms_per_control_step": 25 * ms[physics], "ms_per_substep": ms[physics],
-                "compile_and_first_step_s": 1.0, "diverged": 0}  # fmt: skip
+    def time_substep(task, presets, batch, steps, rounds):
+        return [{"task": task, "physics": p, "batch": batch, "steps": steps, "rounds": rounds, "substeps": 25,
+                 "ms_per_control_step": 25 * ms[p], "ms_per_substep": ms[p], "median_ms_per_substep": ms[p],
+                 "compile_and_first_step_s": 1.0, "load_average_1min": 2.0, "diverged": 0} for p in presets]  # fmt: skip
 
     return time_substep
 
@@ -27,9 +27,9 @@ def test_presets_side_by_side_with_speed_up_and_fidelity(tmp_path, monkeypatch):
         "diverged": False})  # fmt: skip
     assert bench.run(BenchPhysics(out=tmp_path, tasks=("lift",), batch_sizes=(1, 16))) == 0
     res = json.loads((tmp_path / "physics.json").read_text())
-    assert [(r["physics"], r["batch"]) for r in res["timing"]] == [("reference", 1), ("reference", 16), ("fast", 1), ("fast", 16)]
+    assert [(r["physics"], r["batch"]) for r in res["timing"]] == [("reference", 1), ("fast", 1), ("reference", 16), ("fast", 16)]
     md = (tmp_path / "physics.md").read_text()
-    assert "| lift | fast | 16 | 20.00 | 500.0 | 5.00x | 1 |" in md
+    assert "| lift | fast | 16 | 20.00 (20.00) | 500.0 | 5.00x | 1 | 2.0 |" in md
     assert "| lift | reference | 0.28 | 0.75 | 200 / 201 | yes |" in md
     assert "iterations=10" in md and "cores" in md  # the presets and the machine are named
 
@@ -37,12 +37,12 @@ def test_presets_side_by_side_with_speed_up_and_fidelity(tmp_path, monkeypatch):
 def test_rows_measured_before_an_interruption_are_kept(tmp_path, monkeypatch):
     timing = fake_timing({"reference": 100.0, "fast": 20.0})
 
-    def interrupted(task, physics, batch, steps):
-        if physics == "fast":
+    def interrupted(task, presets, batch, steps, rounds):
+        if batch == 16:
             raise KeyboardInterrupt
-        return timing(task, physics, batch, steps)
+        return timing(task, presets, batch, steps, rounds)
 
     monkeypatch.setattr(bench, "time_substep", interrupted)
     with pytest.raises(KeyboardInterrupt):
-        bench.run(BenchPhysics(out=tmp_path, tasks=("lift",), batch_sizes=(1,), fidelity=False))
-    assert len(json.loads((tmp_path / "physics.json").read_text())["timing"]) == 1
+        bench.run(BenchPhysics(out=tmp_path, tasks=("lift",), batch_sizes=(1, 16), fidelity=False))
+    assert len(json.loads((tmp_path / "physics.json").read_text())["timing"]) == 2
