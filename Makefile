@@ -61,7 +61,7 @@ help:
 	@echo "make envs       - export the robosuite tasks to MJX-ready MJCF under envs/"
 	@echo "make demos      - 200 scripted-expert demos per task -> data/demos/<task>.hdf5 (robomimic layout; DEMO_SIM=mjx: <task>-mjx.hdf5)"
 	@echo "make expert-success - the expert's success rate over 100 episodes -> results/expert/"
-	@echo "make bench-env  - MJX vs robosuite control-step throughput -> results/bench/env-<STACK>.{json,md}"
+	@echo "make bench-env  - MJX vs robosuite control-step throughput -> results/bench/env-<STACK>.{json,md}; physics presets side by side -> physics-<STACK>.{json,md}"
 	@echo "make bench-planner - POIR planner calls/s -> results/bench/planner.{json,md}"
 	@echo "make bench-e2e  - evaluated episodes per minute, EBC and POIR-DRIL -> results/bench/e2e.{json,md}"
 	@echo "make bench-robosuite - robosuite bare stepping vs EBC / POIR-DRIL collection -> results/bench/robosuite-e2e.{json,md}"
@@ -125,9 +125,12 @@ test-fast: $(STAMP)
 # PickPlaceCan / NutAssemblySquare cost about 1 s per control step per episode on a 2-core CPU:
 # override on a GPU, e.g. make bench-env BENCH_ENV_ARGS="--contact-rich-batch-sizes 1 16 64 256 1024".
 BENCH_ENV_ARGS ?= --contact-rich-batch-sizes 1 16
+# The physics presets side by side (ms per substep at batch 1/16/64, Lift; 1/16 the others; error against robosuite).
+BENCH_PHYSICS_ARGS ?=
 
 bench-env: $(STAMP)
 	$(PY) -m poir_mjx.cli bench env --out results/bench --name env-$(STACK) $(BENCH_ENV_ARGS)
+	$(PY) -m poir_mjx.cli bench physics --out results/bench --name physics-$(STACK) $(BENCH_PHYSICS_ARGS)
 
 bench-planner: $(STAMP)
 	$(PY) -m poir_mjx.cli bench planner --out results/bench

@@ -92,7 +92,7 @@ def test_eval_takes_the_planner_fields_but_not_the_ones_its_method_picks(capsys)
         (["sweep"], "poir-mjx sweep: missing --config"),
         (["eval", "--ckpt", "x", "--episodes", "0"], "--episodes: must be positive"),
         (["eval", "--ckpt", "x", "--sigma-init"], "--sigma-init: give at least one value"),
-        (["bench"], "expected a subcommand, one of env, planner, e2e, robosuite"),
+        (["bench"], "expected a subcommand, one of env, physics, planner, e2e, robosuite"),
         (["demos", "generate", "--simulator", "gazebo"], "--simulator: 'gazebo' is not one of robosuite, mjx"),
         (["demos", "generate", "--demo-style", "human"], "--demo-style: 'human' is not one of scripted, human_like"),
         (["demos", "spread"], "missing --data"),

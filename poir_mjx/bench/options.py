@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Literal, Optional
 
 from poir_mjx.core.config import PRESETS, REWARDS
+from poir_mjx.envs.physics import PhysicsPresetName
 from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS, TASKS
 from poir_mjx.outputs import file_pair
 from poir_mjx.typed_config import NOISE
@@ -35,6 +36,37 @@ class BenchEnv:
     robosuite_steps: int = 100
     """Timed robosuite control steps (where robosuite is installed)."""
     name: str = "env"
+    """Output file name without extension."""
+
+    def outputs(self):
+        return [(self.out, "folder", "--out"), (self.name, "name", "--name"), *file_pair(self.out, self.name, "--name")]
+
+
+@dataclasses.dataclass(frozen=True)
+class BenchPhysics:
+    """MJX physics presets side by side (make bench-env): ms per physics substep, and the error against robosuite
+    on the fidelity test's grasp-and-lift replay -> <out>/<name>.{json,md}."""
+
+    BOUNDS = {"batch_sizes": (1, 2**20), "contact_rich_batch_sizes": (1, 2**20), "steps": (1, 10**6),
+              "rounds": (1, 1000)}  # fmt: skip
+
+    out: Path = Path("results/bench")
+    """Output folder."""
+    tasks: tuple[Task, ...] = TASKS  # type: ignore[valid-type]
+    """Tasks to time."""
+    physics: tuple[PhysicsPresetName, ...] = ("reference", "fast")
+    """Physics presets (poir_mjx/envs/physics.py), each timed at every batch size."""
+    batch_sizes: tuple[int, ...] = (1, 16, 64)
+    """MJX batch sizes for Lift."""
+    contact_rich_batch_sizes: Optional[tuple[int, ...]] = (1, 16)
+    """Batch sizes for PickPlaceCan and NutAssemblySquare (None: --batch-sizes)."""
+    steps: int = 2
+    """Timed control steps per round (after the one that compiles)."""
+    rounds: int = 3
+    """Rounds per batch size, the presets timed in alternation (the fastest round counts)."""
+    fidelity: bool = True
+    """Also replay robosuite's grasp-and-lift script under each preset (needs robosuite; skipped without it)."""
+    name: str = "physics"
     """Output file name without extension."""
 
     def outputs(self):

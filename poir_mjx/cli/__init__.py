@@ -6,7 +6,7 @@
     report [--results results] [--check]                                 results/README.md from the runs (make report)
     video --run RUN --method M [--versus M2] --sigma-init S              a cell's episodes as an MP4 (make video)
     diagnose --run RUN [--method POIR-L2] [--sigma-init 0.02 0.3]       planner forensics with the oracle (make diagnose)
-    envs / demos generate / demos success / bench env|planner|e2e|robosuite        the other make targets
+    envs / demos generate|success|spread|compact / bench env|physics|planner|e2e|robosuite   the other make targets
 
 Each subcommand is a frozen dataclass of its options (``poir_mjx/options.py``, or the module that
 owns it) and a function taking it; tyro builds the parser from the dataclasses (``--help`` on any
@@ -36,6 +36,7 @@ COMMANDS: tuple[Command, ...] = (
     Command("demos spread", o.DemosSpread, "poir_mjx.cli.demos:run_spread"),
     Command("demos compact", o.DemosCompact, "poir_mjx.cli.demos:run_compact"),
     Command("bench env", "poir_mjx.bench.options:BenchEnv", "poir_mjx.bench.env:run"),
+    Command("bench physics", "poir_mjx.bench.options:BenchPhysics", "poir_mjx.bench.physics:run"),
     Command("bench planner", "poir_mjx.bench.options:BenchPlanner", "poir_mjx.bench.planner:run"),
     Command("bench e2e", "poir_mjx.bench.options:BenchE2E", "poir_mjx.bench.e2e:run"),
     Command("bench robosuite", "poir_mjx.bench.options:BenchRobosuite", "poir_mjx.bench.robosuite:run"),
@@ -47,7 +48,7 @@ COMMANDS: tuple[Command, ...] = (
 # Subcommand groups: (help line, the subcommand run when none is named or None).
 GROUPS = {
     "demos": ("Scripted-expert demonstrations (make demos), the expert's success rate, demo sets' action spread.", "generate"),
-    "bench": ("Throughput benchmarks (make bench-env, bench-planner, bench-e2e, bench-robosuite).", None),
+    "bench": ("Throughput benchmarks (make bench-env: env and physics; bench-planner, bench-e2e, bench-robosuite).", None),
 }
 PROG = "poir-mjx"
 # OSErrors reported as one line (exit status 2) rather than a traceback: no space, no quota, read-only, forbidden.

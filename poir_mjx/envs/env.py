@@ -28,6 +28,7 @@ from poir_mjx.envs import observation
 from poir_mjx.envs.layout import ACTION_SIZE, OBS_KEYS, obs_sizes, observation_keys
 from poir_mjx.envs.model import ModelFileError, load_model, load_variants, model_indices
 from poir_mjx.envs.observation import flatten_obs
+from poir_mjx.envs.physics import REFERENCE, PhysicsConfig, as_physics, solver_scope
 from poir_mjx.envs.placement import sample_object_pose
 from poir_mjx.envs.tasks import check_task
 from poir_mjx.envs.variants import ModelVariants
@@ -81,6 +82,7 @@ class TaskEnv:
     meta: dict
     variants: ModelVariants | None = None  # per-episode object sizes (Lift), variant 0 = `model`
     observation: str = "low_dim"  # what obs_vector gives the policy: "low_dim" or "object" (layout.OBSERVATIONS)
+    physics: PhysicsConfig = REFERENCE  # solver settings (physics.py), already in `model`'s options
 
     def model_for(self, variant) -> mjx.Model:
         """The episode's model: `model`, or its object-size variant (``info["variant"]``)."""
@@ -126,7 +128,8 @@ class TaskEnv:
         i = self._idx
         m = self.model_for(variant)
         d = mjx.make_data(self.model).replace(qpos=jnp.asarray(qpos, float_dtype()))
-        d = mjx.forward(m, d)
+        with solver_scope(self.physics):
+            d = mjx.forward(m, d)
         info = {
             "variant": jnp.asarray(variant, jnp.int32),
             "rng": rng,
@@ -220,7 +223,8 @@ class TaskEnv:
             return (d, goal_pos, goal_ori), None
 
         init = (state.data, jnp.zeros(3), jnp.eye(3))
-        (d, _, _), _ = jax.lax.scan(substep, init, jnp.arange(self.meta["substeps"]))
+        with solver_scope(self.physics):  # MJX's solver as the physics config asks (physics.py)
+            (d, _, _), _ = jax.lax.scan(substep, init, jnp.arange(self.meta["substeps"]))
 
         diverged = ~(jnp.all(jnp.isfinite(d.qpos)) & jnp.all(jnp.isfinite(d.qvel)))
         step = state.info["step"] + 1
@@ -242,15 +246,17 @@ class TaskEnv:
         )
 
 
-def make_env(task: str, envs_dir: str | None = None, observation: str = "low_dim") -> TaskEnv:
+def make_env(task: str, envs_dir: str | None = None, observation: str = "low_dim",
+             physics: PhysicsConfig | str | None = None) -> TaskEnv:  # fmt: skip
     """The MJX environment for `task` (one of poir_mjx.envs.tasks.TASKS), in the current float precision, its
-    policy vector the `observation`'s keys ("low_dim": robomimic's low-dim set; "object": the object-state alone).
+    policy vector the `observation`'s keys ("low_dim": robomimic's low-dim set; "object": the object-state alone),
+    with `physics` (a PhysicsConfig or a preset name of ``physics.PHYSICS_PRESETS``; None: today's, "reference").
 
     The MJX model's arrays take jax's default float (float64 inside ``compat.enable_x64()``), so one
-    environment is kept per task and precision; the observations share its model.
+    environment is kept per task, precision and physics; the observations share its model.
     """
     observation_keys(observation)  # an unknown observation: one ValueError naming it
-    env = _make_env(task, envs_dir, x64_enabled())
+    env = _make_env(task, envs_dir, x64_enabled(), as_physics(physics))
     return env if observation == "low_dim" else _observed(env, observation)
 
 
@@ -260,22 +266,22 @@ def _observed(env: TaskEnv, observation: str) -> TaskEnv:
 
 
 @functools.lru_cache(maxsize=None)
-def _make_env(task: str, envs_dir: str | None, x64: bool) -> TaskEnv:
+def _make_env(task: str, envs_dir: str | None, x64: bool, physics: PhysicsConfig = REFERENCE) -> TaskEnv:
     check_task(task)
-    mj_model, meta = load_model(task, envs_dir)
+    mj_model, meta = load_model(task, envs_dir, physics)
     model = mjx.put_model(mj_model)
-    variants = load_variants(task, envs_dir, mj_model, model, meta)
-    return TaskEnv(task=task, mj_model=mj_model, model=model, meta=meta, variants=variants)
+    variants = load_variants(task, envs_dir, mj_model, model, meta, physics)
+    return TaskEnv(task=task, mj_model=mj_model, model=model, meta=meta, variants=variants, physics=physics)
 
 
-def batched(task: str, envs_dir: str | None = None):
+def batched(task: str, envs_dir: str | None = None, physics: PhysicsConfig | str | None = None):
     """(reset, reset_to, step) jitted and vmapped over episodes; one compilation per batch shape."""
-    return _batched(task, envs_dir, x64_enabled())
+    return _batched(task, envs_dir, x64_enabled(), as_physics(physics))
 
 
 @functools.lru_cache(maxsize=None)
-def _batched(task: str, envs_dir: str | None, x64: bool):
-    env = _make_env(task, envs_dir, x64)
+def _batched(task: str, envs_dir: str | None, x64: bool, physics: PhysicsConfig = REFERENCE):
+    env = _make_env(task, envs_dir, x64, physics)
     return (
         jax.jit(jax.vmap(env.reset)),
         jax.jit(jax.vmap(env.reset_to)),

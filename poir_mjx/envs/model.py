@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 from mujoco import mjx
 
+from poir_mjx.envs.physics import REFERENCE, PhysicsConfig, edit_spec
 from poir_mjx.envs.tasks import task_files
 from poir_mjx.envs.variants import ModelVariants, compile_variant, variant_sizes
 
@@ -17,8 +18,10 @@ class ModelFileError(ValueError):
     """An exported model file is missing or invalid; the message names the file (and field)."""
 
 
-def load_model(task: str, envs_dir: str | Path | None = None) -> tuple[mujoco.MjModel, dict]:
-    """Compile envs/<task>.xml (meshes from envs/assets/, no robosuite needed) and read its metadata."""
+def load_model(task: str, envs_dir: str | Path | None = None,
+               physics: PhysicsConfig = REFERENCE) -> tuple[mujoco.MjModel, dict]:  # fmt: skip
+    """Compile envs/<task>.xml (meshes from envs/assets/, no robosuite needed) with `physics`'s solver options
+    (the default: the exported ones) and read its metadata."""
     files = task_files(task, envs_dir)
     for f in (files.xml, files.meta):
         if not f.exists():
@@ -29,6 +32,7 @@ def load_model(task: str, envs_dir: str | Path | None = None) -> tuple[mujoco.Mj
         raise ModelFileError(f"{files.meta}: not valid JSON ({e})") from e
     spec = mujoco.MjSpec.from_string(files.xml.read_text())
     spec.meshdir = str(files.xml.parent.resolve()) + "/"
+    edit_spec(spec, physics)
     try:
         model = spec.compile()
     except Exception as e:  # mujoco raises ValueError with the parser's message
@@ -39,7 +43,7 @@ def load_model(task: str, envs_dir: str | Path | None = None) -> tuple[mujoco.Mj
 
 
 def load_variants(task: str, envs_dir: str | Path | None, mj_model: mujoco.MjModel, model: mjx.Model,
-                  meta: dict) -> ModelVariants | None:  # fmt: skip
+                  meta: dict, physics: PhysicsConfig = REFERENCE) -> ModelVariants | None:  # fmt: skip
     """The per-episode object-size variants (variant 0 is `model`), or None for a task without ``object_size``."""
     if "object_size" not in meta:
         return None
@@ -47,7 +51,8 @@ def load_variants(task: str, envs_dir: str | Path | None, mj_model: mujoco.MjMod
     gid = mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_GEOM, meta["object_size"]["geom"])
     sizes = variant_sizes(meta, mj_model.geom_size[gid])
     xml, meshdir = files.xml.read_text(), str(files.xml.parent.resolve()) + "/"
-    models = [model] + [mjx.put_model(compile_variant(xml, meshdir, meta, sz)) for sz in sizes[1:]]
+    edit = lambda spec: edit_spec(spec, physics)  # noqa: E731
+    models = [model] + [mjx.put_model(compile_variant(xml, meshdir, meta, sz, edit)) for sz in sizes[1:]]
     return ModelVariants.build(models, sizes)
 
 

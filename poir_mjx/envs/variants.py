@@ -33,10 +33,13 @@ def variant_sizes(meta: dict, exported: np.ndarray, k: int = NUM_VARIANTS) -> np
     return np.concatenate([np.asarray(exported, np.float64)[None], draws])
 
 
-def compile_variant(xml: str, meshdir: str, meta: dict, size: np.ndarray) -> mujoco.MjModel:
-    """The task's model with the object box's half-sizes `size` (mass and inertia from the density)."""
+def compile_variant(xml: str, meshdir: str, meta: dict, size: np.ndarray, edit=None) -> mujoco.MjModel:
+    """The task's model with the object box's half-sizes `size` (mass and inertia from the density); `edit`, if
+    given, further edits the spec (the environment's physics settings) before it is compiled."""
     spec = mujoco.MjSpec.from_string(xml)
     spec.meshdir = meshdir
+    if edit is not None:
+        edit(spec)
     o = meta["object_size"]
     spec.geom(o["geom"]).size[:3] = size
     body = spec.body(meta["object_body"])

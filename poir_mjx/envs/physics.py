@@ -1,0 +1,108 @@
+"""The MJX physics settings of an environment: solver budget and the optional cost cuts, as one typed config.
+
+``PhysicsConfig()`` is today's physics ("reference": robosuite's solver options as exported, unpatched MJX).
+``physics_preset("fast")`` is the cheaper setting measured in ``make bench-env`` (results/bench/); every cut is
+its own field, so each stays reachable alone. The settings reach the model through the MjSpec before it is
+compiled (``edit_spec``: solver options, floor contacts) and MJX's solver through ``solver_patch`` while a step is traced
+(``solver_scope``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+from typing import TYPE_CHECKING, Literal
+
+from poir_mjx.typed_config import ConfigError, check
+
+if TYPE_CHECKING:  # no mujoco import here: the option dataclasses (poir_mjx/options.py) name the presets
+    import mujoco
+
+PhysicsPresetName = Literal["reference", "fast"]
+
+
+@dataclasses.dataclass(frozen=True)
+class PhysicsConfig:
+    """MJX solver settings of a TaskEnv (the default is today's physics, robosuite's options)."""
+
+    iterations: int = 100
+    """Newton iterations at most per physics substep (robosuite and the exported model: 100). Measured on Lift:
+    2.0 on average, 9 at most (issue 42)."""
+    ls_iterations: int = 50
+    """Line-search steps at most per Newton iteration (exported model: 50; measured about 5.3 on average)."""
+    tolerance: float = 1e-8
+    """Solver tolerance (relative cost improvement and gradient) that ends Newton early (exported model: 1e-8)."""
+    linesearch_loop: Literal["scan", "while"] = "scan"
+    """"scan": MJX's own line search (a ``lax.scan`` over ``lax.cond``, which under ``vmap`` runs all
+    ``ls_iterations`` steps); "while": a ``lax.while_loop`` (``solver_patch``: the same steps and maths, ends when
+    the batch's slowest search has converged; not reverse-mode differentiable)."""
+    cone_hessian: Literal["dense", "blocks"] = "dense"
+    """Newton's Hessian with elliptic cones: "dense" is MJX's (an nefc x nefc matrix assembled by one scatter per
+    contact, then J^T C J); "blocks" adds J_c^T H_c J_c per contact to J^T diag(D active) J (``solver_patch``:
+    the same maths in another summation order)."""
+    floor_contacts: bool = True
+    """False: the floor plane collides with nothing, which drops its candidate pairs (6 for Lift and PickPlaceCan,
+    10 for NutAssemblySquare: the gripper's five collision geoms, out of the arm's reach, and the object's geoms,
+    which reach the floor only after leaving the table). A load-time edit, envs/README.md."""
+
+    @property
+    def patched(self) -> bool:
+        """Whether MJX's solver is patched (``solver_patch``) for this config."""
+        return self.linesearch_loop != "scan" or self.cone_hessian != "dense"
+
+
+REFERENCE = PhysicsConfig()
+# The cheaper physics: iterations sized from the measured need (Newton: 2 on average, 9 at most; line search
+# about 5 per iteration), with margin, and every same-maths cut (the solver patch, the floor's pairs). Not the
+# default: measured against the reference and robosuite in results/bench/physics-cpu.md.
+PHYSICS_PRESETS: dict[str, PhysicsConfig] = {
+    "reference": REFERENCE,
+    "fast": PhysicsConfig(iterations=10, ls_iterations=8, linesearch_loop="while", cone_hessian="blocks",
+                          floor_contacts=False),  # fmt: skip
+}
+
+
+def physics_preset(name: str) -> PhysicsConfig:
+    """The named physics (``PHYSICS_PRESETS``); an unknown name is a ConfigError listing the known ones."""
+    if name not in PHYSICS_PRESETS:
+        raise ConfigError(f"physics: unknown preset {name!r}; expected one of {', '.join(PHYSICS_PRESETS)}")
+    return PHYSICS_PRESETS[name]
+
+
+def as_physics(physics: PhysicsConfig | str | None) -> PhysicsConfig:
+    """A checked PhysicsConfig from a config, a preset name, or None (the reference)."""
+    if physics is None:
+        return REFERENCE
+    if isinstance(physics, str):
+        return physics_preset(physics)
+    if not isinstance(physics, PhysicsConfig):
+        raise ConfigError(f"physics: expected a PhysicsConfig or a preset name, got {physics!r}")
+    check(physics, "physics.")
+    if physics.patched:  # refused here, before anything is built, on an MJX the patch was not written for
+        from poir_mjx.envs import solver_patch
+
+        solver_patch.check_version()
+    return physics
+
+
+def edit_spec(spec: mujoco.MjSpec, physics: PhysicsConfig) -> mujoco.MjSpec:
+    """Write the solver options (and, if asked, the floor's collision flags) into a task's spec before compiling."""
+    spec.option.iterations = physics.iterations
+    spec.option.ls_iterations = physics.ls_iterations
+    spec.option.tolerance = physics.tolerance
+    if not physics.floor_contacts:
+        floor = spec.geom("floor")
+        if floor is None:
+            raise ConfigError("physics.floor_contacts: the model has no geom named 'floor'")
+        floor.contype, floor.conaffinity = 0, 0
+    return spec
+
+
+def solver_scope(physics: PhysicsConfig):
+    """The scope in which an environment's MJX calls are traced: MJX's solver patched as `physics` asks, or as is."""
+    if not physics.patched:
+        return contextlib.nullcontext()
+    from poir_mjx.envs import solver_patch
+
+    return solver_patch.patched(while_linesearch=physics.linesearch_loop == "while",
+                                block_hessian=physics.cone_hessian == "blocks")  # fmt: skip
