@@ -56,7 +56,8 @@ def test_dry_run_runs_every_stage_and_a_rerun_skips_them(tmp_path, capsys):
         assert data["complete"] and data["dry_run"] and data["rows"], stage
         assert data["machine"]["device"].startswith("cpu") and data["machine"]["versions"]["mujoco"]
     rows = {s: json.loads((out / f"{s}.json").read_text())["rows"] for s in STAGES}
-    assert [r["batch"] for r in rows["env"]] == [1] and all(r["control_steps_per_s"] > 0 for r in rows["env"])
+    assert [(r["physics"], r["batch"]) for r in rows["env"]] == [("fast", 1), ("reference", 1)]
+    assert all(r["control_steps_per_s"] > 0 for r in rows["env"])
     assert {r["reward"] for r in rows["planner"]} == {"dril", "l2", "morel"}
     assert all(r["matmul_flops_per_call"] > 0 and r["achieved_flop_s"] > 0 for r in rows["planner"])
     assert [r["method"] for r in rows["e2e"]] == ["EBC", "POIR-DRIL"] and rows["e2e"][0]["demos"] == "file"

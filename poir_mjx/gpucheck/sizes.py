@@ -17,6 +17,8 @@ class Sizes:
     """Lift episodes per batched MJX step, in priority order (the reset is compiled once, at the largest)."""
     env_steps: int
     """Timed batched control steps per size."""
+    env_physics: tuple[str, ...]
+    """Physics presets timed side by side (poir_mjx/envs/physics.py: today's "reference", the cheaper "fast")."""
     planner_preset: str
     """The POIR preset whose planner is timed (paper: N 4000, H 5, K 27, 5x300)."""
     planner_batches: tuple[int, ...]
@@ -62,7 +64,7 @@ class Sizes:
 
 
 GPU = Sizes(
-    env_batches=(1, 4096, 1024), env_steps=20,
+    env_batches=(4096, 1024), env_steps=20, env_physics=("fast", "reference"),
     planner_preset="paper", planner_batches=(1, 64), planner_calls=5, expert_states=30_000,
     e2e_preset="cpu-small", e2e_episodes=1024, e2e_steps=400, epochs=0, num_demos=DEFAULT_NUM_DEMOS, demo_batch=256,
     sweep_sigma_init=(0.02, 0.1, 0.2, 0.4),
@@ -80,7 +82,7 @@ GPU = Sizes(
 # 1 epoch, demos in batches of 2) and its expert rollout is the demos' own: in one pytest process the
 # compiled programs are shared, so the dry run adds few compilations to make test-current.
 DRY = Sizes(
-    env_batches=(1,), env_steps=2,
+    env_batches=(1,), env_steps=2, env_physics=("fast", "reference"),
     planner_preset="cpu-small", planner_batches=(1, 2), planner_calls=2, expert_states=500,
     e2e_preset="cpu-small", e2e_episodes=4, e2e_steps=4, epochs=1, num_demos=6, demo_batch=2,
     sweep_sigma_init=(0.02, 0.3),

@@ -1,6 +1,7 @@
 """The six stages of a GPU check, in priority order; each adds rows to its Record as it measures them.
 
-1. env: Lift MJX control steps/s per batch size (the reset compiled once, at the largest batch).
+1. env: Lift MJX control steps/s per batch size, today's physics and the fast preset side by side (the reset
+   compiled once per preset, at the largest batch).
 2. e2e: EBC and POIR-DRIL evaluated episodes per minute on Lift (compiled ahead, timed apart), trained on the
    demos carried from a CPU (recorded in MJX where none were carried).
 3. cell: one paper-size cell (PickPlaceCan at sigma_init 0.1, K 27, 5x300, N 4000, H 5): EBC, POIR-random and
@@ -47,29 +48,33 @@ def peak_flops() -> float | None:
 
 
 def env_stage(sizes: Sizes, rec: Record, where: Where) -> None:
+    """Lift's batched control step under today's physics and the cheaper preset side by side, in one process."""
     from poir_mjx.envs.env import batched, make_env, make_params
 
     env = make_env("lift")
-    reset, _, step = batched("lift")
     big = max(sizes.env_batches)
-    t0 = time.perf_counter()
-    state = jax.block_until_ready(reset(jax.random.split(jax.random.PRNGKey(0), big), make_params(np.full(big, 0.02))))
-    reset_s = time.perf_counter() - t0
-    for b in sizes.env_batches:
-        st = jax.tree_util.tree_map(lambda x: x[:b], state)
-        act = jax.random.uniform(jax.random.PRNGKey(b), (sizes.env_steps + 1, b, env.action_size), minval=-1, maxval=1)
+    for physics in sizes.env_physics:
+        reset, _, step = batched("lift", physics=physics)
         t0 = time.perf_counter()
-        st = jax.block_until_ready(step(st, act[0]))
-        compile_s = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        for k in range(1, sizes.env_steps + 1):
-            st = step(st, act[k])
-        jax.block_until_ready(st)
-        dt = time.perf_counter() - t0
-        rec.add({"task": "lift", "batch": b, "steps": sizes.env_steps, "control_steps_per_s": b * sizes.env_steps / dt,
-                 "ms_per_batched_step": 1e3 * dt / sizes.env_steps, "compile_and_first_step_s": compile_s,
-                 "reset_compile_and_run_s_at_batch_" + str(big): reset_s,
-                 "diverged": int(np.asarray(st.info["diverged"]).sum())})  # fmt: skip
+        state = jax.block_until_ready(reset(jax.random.split(jax.random.PRNGKey(0), big),
+                                            make_params(np.full(big, 0.02))))  # fmt: skip
+        reset_s = time.perf_counter() - t0
+        for b in sizes.env_batches:
+            st = jax.tree_util.tree_map(lambda x: x[:b], state)
+            act = jax.random.uniform(jax.random.PRNGKey(b), (sizes.env_steps + 1, b, env.action_size), minval=-1,
+                                     maxval=1)  # fmt: skip
+            t0 = time.perf_counter()
+            st = jax.block_until_ready(step(st, act[0]))
+            compile_s = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            for k in range(1, sizes.env_steps + 1):
+                st = step(st, act[k])
+            jax.block_until_ready(st)
+            dt = time.perf_counter() - t0
+            rec.add({"task": "lift", "physics": physics, "batch": b, "steps": sizes.env_steps,
+                     "control_steps_per_s": b * sizes.env_steps / dt, "ms_per_batched_step": 1e3 * dt / sizes.env_steps,
+                     "compile_and_first_step_s": compile_s, "reset_compile_and_run_s_at_batch_" + str(big): reset_s,
+                     "diverged": int(np.asarray(st.info["diverged"]).sum())})  # fmt: skip
 
 
 def _flops(compiled) -> float | None:
