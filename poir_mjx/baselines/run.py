@@ -18,6 +18,7 @@ import jax
 import numpy as np
 
 from poir_mjx.baselines.learner import ExpertData, Learner
+from poir_mjx.core.agent import check_losses
 from poir_mjx.rollout.evaluator import make_evaluator, success_record
 from poir_mjx import run_state as ock
 from poir_mjx.rollout.sharding import run_batch
@@ -85,6 +86,8 @@ def train_baseline(learner: Learner, env, expert: ExpertData, env_params, eval_k
     for _ in range(chunks):
         before = int(learner.env_steps(state))
         state, metrics = learner.train(state, iters)
+        check_losses(metrics, f"{learner.name} at {int(learner.env_steps(state))} environment steps",
+                     "the baseline's learning rates")  # fmt: skip
         reward = float(np.nanmean(np.asarray(metrics["imitation_reward"])))
         curve.append(evaluate(state, reward))
         save()

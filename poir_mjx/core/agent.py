@@ -38,6 +38,15 @@ class TrainingDivergedError(ValueError):
     """A training loss became NaN or inf: the run stops with one line and records nothing."""
 
 
+def check_losses(metrics: dict, where: str, hint: str = "train.learning_rate") -> None:
+    """Raise TrainingDivergedError naming `where` if any metric whose name contains "loss" is not finite (every
+    training loop's losses: POIR's ensembles, online fine-tuning, the baselines)."""
+    for name, value in metrics.items():
+        if "loss" in name and not np.all(np.isfinite(np.asarray(value))):
+            raise TrainingDivergedError(f"{where}: the training loss {name!r} is not finite; nothing was recorded "
+                                        f"(lower {hint})")  # fmt: skip
+
+
 @struct.dataclass
 class POIRParams:
     bc: Any  # stacked BC ensemble [K]

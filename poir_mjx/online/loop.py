@@ -27,7 +27,7 @@ import numpy as np
 from flax import struct
 
 from poir_mjx.core import ensemble as ens
-from poir_mjx.core.agent import POIR, POIRParams
+from poir_mjx.core.agent import POIR, POIRParams, check_losses
 from poir_mjx.envs.env import EnvParams
 from poir_mjx.rollout.episode import batched_episodes, stateless
 from poir_mjx.rollout.evaluator import success_record
@@ -254,6 +254,7 @@ class OnlineTrainer:
                                     self.grad_steps_per_round, state.wm, inputs.off_x, inputs.off_y, buf,
                                     params.obs_norm, params.act_norm, state.round * self.grad_steps_per_round,
                                     k_train, clip)  # fmt: skip
+        check_losses({"loss": losses}, f"online fine-tuning, round {r + 1}", "train.learning_rate")
         state = RunState(wm=wm, buffer=buf, key=key, round=state.round + 1)
         first = np.asarray(outcome["first_success"])
         log = {

@@ -48,3 +48,23 @@ def test_expert_data_marks_demo_starts_and_ends():
     assert isinstance(ex, ExpertData) and ex.obs.dtype == np.float32
     np.testing.assert_array_equal(ex.initial, [1, 0, 0, 1, 0])
     np.testing.assert_array_equal(ex.terminal, [0, 0, 1, 0, 1])
+
+
+def test_a_baseline_whose_loss_diverges_stops_with_one_line(tmp_path):
+    import jax.numpy as jnp
+    import pytest
+
+    from poir_mjx.core.agent import TrainingDivergedError
+
+    @dataclasses.dataclass(frozen=True)
+    class Diverging(StepLearner):
+        def train(self, state, iterations):
+            state, metrics = super().train(state, iterations)
+            return state, {**metrics, "critic_loss": jnp.full(iterations, jnp.nan)}
+
+    keys = jax.random.split(jax.random.PRNGKey(0), 2)
+    with pytest.raises(TrainingDivergedError, match=r"step-learner at 8 environment steps: the training loss "
+                                                    r"'critic_loss' is not finite"):
+        train_baseline(Diverging(), ENV, None, make_params(0.05, 0.0), keys, 30, jax.random.PRNGKey(1),
+                       total_env_steps=24, eval_every=8, env_steps_per_iteration=4,
+                       checkpoint_path=tmp_path / "c.ckpt")  # fmt: skip

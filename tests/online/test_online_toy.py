@@ -89,3 +89,23 @@ def test_interrupted_run_resumes_to_the_same_result(setup, tmp_path):
     assert again.resumed_from_round == 4 and again.curve == resumed.curve
     with pytest.raises(CheckpointError, match="online.ckpt: field 'config_hash'"):
         trainer.run(params, offline, DEPLOY, eval_keys, jax.random.PRNGKey(1), checkpoint_path=ckpt, config_hash="other")
+
+
+def test_a_fine_tuning_whose_loss_diverges_stops_with_one_line(setup, monkeypatch, tmp_path):
+    import jax.numpy as jnp
+
+    from poir_mjx.core.agent import TrainingDivergedError
+    from poir_mjx.online import loop
+
+    trainer, params, offline, eval_keys, _ = setup
+    real = loop.finetune
+
+    def diverging(*args, **kwargs):
+        wm, losses, frac = real(*args, **kwargs)
+        return wm, jnp.full_like(losses, jnp.inf), frac
+
+    monkeypatch.setattr(loop, "finetune", diverging)
+    with pytest.raises(TrainingDivergedError, match=r"online fine-tuning, round 1: the training loss 'loss' is not "
+                                                    r"finite"):
+        trainer.run(params, offline, DEPLOY, eval_keys, jax.random.PRNGKey(1), checkpoint_path=tmp_path / "o.ckpt",
+                    config_hash="h")  # fmt: skip
