@@ -48,3 +48,10 @@ def pytest_runtest_teardown(item, nextitem):
                 value.cache_clear()
     jax.clear_caches()
     gc.collect()
+    if sys.platform.startswith("linux"):  # hand the freed pages back to the OS (glibc keeps them otherwise)
+        import ctypes
+
+        try:
+            ctypes.CDLL("libc.so.6").malloc_trim(0)
+        except (OSError, AttributeError):
+            pass
