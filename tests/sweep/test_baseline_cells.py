@@ -47,7 +47,7 @@ class Toy:
 @pytest.fixture
 def toy_sweep(monkeypatch, tmp_path):
     monkeypatch.setitem(registry.BASELINES, "DAC", FakeBaseline("DAC", "dac", "DAC", "fake"))
-    monkeypatch.setattr(cells, "make_env", lambda task: PointMassEnv(drift_y=0.0, horizon=30))
+    monkeypatch.setattr(cells, "make_env", lambda task, **kw: PointMassEnv(drift_y=0.0, horizon=30))
     cfg = SweepConfig(name="toy", methods=("DAC",), sigma_init=(0.0, 0.05), episodes=8, max_steps=30)
     grid = [(si, 0.0) for si in cfg.sigma_init]
     chash = cell_hash(cfg, "lift", "DAC", "digest")
