@@ -74,6 +74,13 @@ def _returns(agent: POIR, reward: str, params: POIRParams, imag) -> jax.Array:
 
 
 @functools.lru_cache(maxsize=8)
+def plan_fn(agent: POIR):
+    """jit(agent.plan), one per agent config: every diagnosed episode drives with the same compiled planner (a new
+    ``jax.jit(agent.plan)`` per episode would trace and compile it again)."""
+    return jax.jit(agent.plan)
+
+
+@functools.lru_cache(maxsize=8)
 def true_rewards_fn(agent: POIR):
     """jit((params, obs [H + 1, N, ds] raw, actions [H, N, da] normalised) -> {reward: [H, N]}): each reward of the
     states the true simulator reached."""

@@ -93,6 +93,7 @@ def diagnose_episode(cfg: DiagnoseConfig, run_cfg, agent, params, j: int, episod
 
     from poir_mjx.diagnose import probe
     from poir_mjx.diagnose.analyze import call_record
+    from poir_mjx.diagnose.call_stats import real_rows
     from poir_mjx.diagnose.simulate import Oracle, run_episode
     from poir_mjx.eval.robosuite_eval import episode_streams
     from poir_mjx.rollout.evaluator import episode_keys
@@ -102,7 +103,7 @@ def diagnose_episode(cfg: DiagnoseConfig, run_cfg, agent, params, j: int, episod
     n_ep = run_cfg.episodes
     key = episode_keys(cfg.seed, len(grid) * n_ep)[j * n_ep + episode][None]
     seeds, step_keys = episode_streams(key, steps)
-    policy = jax.jit(agent.plan)
+    policy = probe.plan_fn(agent)
     ep, snaps = run_episode(cfg.task, int(seeds[0]), si, lambda o, k: np.asarray(policy(params, o, k)),
                             np.asarray(step_keys[0]), steps, cfg.every, episode)  # fmt: skip
     call = probe.call_fn(agent)
@@ -116,8 +117,6 @@ def diagnose_episode(cfg: DiagnoseConfig, run_cfg, agent, params, j: int, episod
             c = jax.tree_util.tree_map(np.asarray, call(params, snap.obs, snap.key))
             kw = {}
             if oracle is not None:
-                from poir_mjx.diagnose.call_stats import real_rows
-
                 acts_norm = np.stack([real_rows(a, pc.num_trajectories) for a in c["actions"]], 1)  # [N, H, da]
                 acts_env = np.asarray(agent._to_env_action(params, acts_norm))
                 true_obs = oracle.rollout(snap, acts_env)  # [H + 1, N, ds]
