@@ -13,6 +13,7 @@ import tyro
 
 from poir_mjx.flags import flags_type
 from poir_mjx.core.config import PlannerConfig, POIRConfig
+from poir_mjx.envs.physics import PhysicsPresetName
 from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS, TASKS
 from poir_mjx.outputs import file_pair
 from poir_mjx.typed_config import NOISE, SEED
@@ -81,6 +82,8 @@ class Eval:
     """Also write the table to this file (markdown)."""
     planner: PlannerFlags = PlannerFlags()  # type: ignore[valid-type]
     """Planner settings replacing the checkpoint's (POIR methods only)."""
+    physics: PhysicsPresetName = "reference"
+    """MJX physics preset (poir_mjx/envs/physics.py: reference, fast, fast-capped); robosuite is robosuite's own."""
 
     def outputs(self):
         return [] if self.out is None else [(self.out, "file", "--out")]
@@ -222,10 +225,18 @@ class DemosSuccess:
     x64: bool = False
     """Run the MJX physics in float64 (jax_enable_x64). NutAssemblySquare's grasp needs it in MJX: the expert succeeds
     in 20 of 32 float32 episodes, 32 of 32 in float64 (docs/expert-data.md)."""
+    physics: PhysicsPresetName = "reference"
+    """MJX physics preset (poir_mjx/envs/physics.py: reference, fast, fast-capped); other than reference, the
+    tables are success_<simulators>_<physics>.{md,json}."""
 
     def outputs(self):
-        tag = "_".join(self.simulator)
+        tag = self.tag
         return [(self.out, "folder", "--out"), *file_pair(self.out, f"success_{tag}", "--out")]
+
+    @property
+    def tag(self) -> str:
+        """The tables' file name tag: the simulators, and the physics preset other than reference."""
+        return "_".join(self.simulator) + ("" if self.physics == "reference" else f"_{self.physics}")
 
 
 @dataclasses.dataclass(frozen=True)

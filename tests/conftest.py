@@ -35,6 +35,49 @@ def pytest_runtest_teardown(item, nextitem):
     Without this the CPU suite's process grew to 14 GB resident (issue 43)."""
     if nextitem is not None and Path(nextitem.path).parent == Path(item.path).parent:
         return
+    before = _resident_mb()
+    _drop_compiled_programs()
+    _FOLDER_MEMORY.append((str(Path(item.path).parent.relative_to(Path(__file__).parent.parent)), before,
+                           _resident_mb(), _peak_mb()))  # fmt: skip
+
+
+# (folder, resident MB at its end, resident MB after the drop, the process's peak MB so far), one per test folder run
+_FOLDER_MEMORY: list[tuple[str, float, float, float]] = []
+
+
+def _resident_mb() -> float:
+    """This process's resident memory now (Linux /proc; NaN elsewhere)."""
+    try:
+        pages = int(Path("/proc/self/statm").read_text().split()[1])
+    except (OSError, IndexError, ValueError):
+        return float("nan")
+    return pages * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+def _peak_mb() -> float:
+    """This process's peak resident memory so far (ru_maxrss: KB on Linux)."""
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def pytest_terminal_summary(terminalreporter):
+    """The suite's peak memory and the folders that raised it, so a regression of issue 43's class 9 shows in CI."""
+    if not _FOLDER_MEMORY:
+        return
+    rows, last_peak = [], 0.0
+    for folder, end, after, peak in _FOLDER_MEMORY:
+        rows.append((peak - last_peak, folder, end, after, peak))
+        last_peak = max(last_peak, peak)
+    write = terminalreporter.write_line
+    write(f"peak resident memory of this pytest process: {_peak_mb() / 1024:.1f} GB; folders that raised it:")
+    for raised, folder, end, after, peak in sorted(rows, reverse=True)[:6]:
+        if raised > 0:
+            write(f"  {folder}: peak +{raised:.0f} MB to {peak:.0f} MB; resident {end:.0f} MB at its end, "
+                  f"{after:.0f} MB after dropping its programs")  # fmt: skip
+
+
+def _drop_compiled_programs() -> None:
     import functools
     import gc
 

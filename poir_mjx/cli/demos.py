@@ -49,15 +49,18 @@ def run_generate(opts: DemosGenerate) -> int:
 def run_success(opts: DemosSuccess) -> int:
     if opts.episodes <= 0 or opts.batch < 0:
         raise ConfigError(f"--episodes and --batch: must be positive (--batch 0: all at once), got {opts.episodes} and {opts.batch}")
+    if opts.physics != "reference" and "mjx" not in opts.simulator:
+        raise ConfigError(f"--physics: {opts.physics!r} sets MJX's physics; --simulator {' '.join(opts.simulator)} "
+                          "does not step MJX")  # fmt: skip
     set_precision(opts.x64, opts.tasks, opts.simulator)
     rows, partials = [], []
     for task in opts.tasks:
         for sim in opts.simulator:
             if sim == "mjx":
                 partials.append(mjx_partial_path(opts.out / ".partial", task, opts.episodes, opts.seed, opts.sigma_init,
-                                                 EXPERT_STEPS[task], x64=x64_enabled()))  # fmt: skip
+                                                 EXPERT_STEPS[task], x64=x64_enabled(), physics=opts.physics))  # fmt: skip
                 r = mjx_success(task, opts.episodes, opts.seed, opts.sigma_init, batch=opts.batch, partial=partials[-1],
-                                progress=True)  # fmt: skip
+                                progress=True, physics=opts.physics)  # fmt: skip
             else:
                 r = robosuite_success(task, opts.episodes, opts.seed, opts.sigma_init)
             rows.append({"task": task, **r})
@@ -70,7 +73,8 @@ def run_success(opts: DemosSuccess) -> int:
         "MJX, the step of first success.",
         "",
         f"Expert: {ex.NAME}; sigma_init {opts.sigma_init}, no action noise, seed {opts.seed}; "
-        f"JAX device {dev.platform} (x64 {jax.config.jax_enable_x64}). Command: `{command_line()}`.",
+        f"JAX device {dev.platform} (x64 {jax.config.jax_enable_x64}); MJX physics {opts.physics}. "
+        f"Command: `{command_line()}`.",
         "",
         "| task | simulator | episodes | successes | success rate | diverged | mean length of successful episodes | wall s |",
         "|---|---|---|---|---|---|---|---|",
@@ -80,7 +84,7 @@ def run_success(opts: DemosSuccess) -> int:
         lines.append(f"| {r['task']} | {r['simulator']} | {r['episodes']} | {r['successes']} | "
                      f"{r['successes'] / r['episodes']:.2f} | {r['diverged']} | {ln} | {r['seconds']:.0f} |")  # fmt: skip
     table = "\n".join(lines) + "\n"
-    tag = "_".join(opts.simulator)
+    tag = opts.tag
     atomic_write_text(opts.out / f"success_{tag}.md", table)
     atomic_write_text(opts.out / f"success_{tag}.json", json.dumps(rows, indent=2) + "\n")
     for p in partials:  # their outcomes are in the tables now

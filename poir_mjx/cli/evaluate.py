@@ -80,14 +80,15 @@ def table(opts: options.Eval) -> list[str]:
     keys = episode_keys(opts.seed, len(si))
     sims = list(SIMULATORS) if opts.simulator == "both" else [opts.simulator]
     steps, workers = opts.max_steps, opts.workers
-    res = {sim: run_episodes(sim, task, method, agent, params, keys, si, sa, steps, workers, True, observation)
-           for sim in sims}  # fmt: skip
+    res = {sim: run_episodes(sim, task, method, agent, params, keys, si, sa, steps, workers, True, observation,
+                             opts.physics) for sim in sims}  # fmt: skip
     data = layout.get("demos", {})
     planner = "".join(f"; {k}={v}" for k, v in flags.items())
     lines = [f"{task}, {method.name}, checkpoint {opts.ckpt}{planner}; expert data: {data.get('source', '?')} "
              f"({data.get('simulator', data.get('path', '?'))}); {n} episodes x {opts.max_steps} steps per "
              f"cell, seed {opts.seed} (the sweep's episode keys); simulator: "
-             + " vs ".join(simulator_line(sim) for sim in sims), "",
+             + " vs ".join(simulator_line(sim) + (f" ({opts.physics} physics)" if sim == "mjx" else "")
+                           for sim in sims), "",  # fmt: skip
              "| sigma_init | sigma_action | " + " | ".join(f"{sim}: success [Wilson 95%] (diverged)" for sim in sims)
              + (" | Fisher p |" if len(sims) == 2 else " |"),
              "|---|---|" + "---|" * (len(sims) + (len(sims) == 2))]  # fmt: skip

@@ -64,15 +64,16 @@ def expert_policy(task: str, style: str = "scripted") -> Policy:
 
 
 @functools.lru_cache(maxsize=None)
-def expert_rollout(task: str, steps: int, style: str = "scripted"):
-    """jit(vmap(episode)): (unused params, keys [B], EnvParams [B]) -> (outcomes [B], per-step records [B, T, ...])."""
+def expert_rollout(task: str, steps: int, style: str = "scripted", physics: str = "reference"):
+    """jit(vmap(episode)): (unused params, keys [B], EnvParams [B]) -> (outcomes [B], per-step records [B, T, ...]),
+    the MJX physics a preset of ``envs.physics`` (the demos: "reference")."""
 
     def record(s, a, s2):
         d = s.data
         return {"obs": s.obs, "next_obs": s2.obs, "action": a, "success": s2.success,
                 "state": jnp.concatenate([d.time[None], d.qpos, d.qvel])}  # fmt: skip
 
-    return batched_episodes(make_env(task), expert_policy(task, style), steps, record)
+    return batched_episodes(make_env(task, physics=physics), expert_policy(task, style), steps, record)
 
 
 def episode_keys(seed: int, start: int, n: int) -> jax.Array:

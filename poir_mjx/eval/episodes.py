@@ -18,9 +18,11 @@ SIMULATORS = ("mjx", "robosuite")
 
 
 @functools.lru_cache(maxsize=None)
-def mjx_evaluator(task: str, method: Method, agent: POIR, steps: int, observation: str = "low_dim"):
-    """One compiled MJX evaluator per (task, method, agent config, steps, observation), reused across cells and runs."""
-    env = make_env(task, observation=observation)
+def mjx_evaluator(task: str, method: Method, agent: POIR, steps: int, observation: str = "low_dim",
+                  physics: str = "reference"):  # fmt: skip
+    """One compiled MJX evaluator per (task, method, agent config, steps, observation, physics preset), reused across
+    cells and runs."""
+    env = make_env(task, observation=observation, physics=physics)
     if method.oracle:
         from poir_mjx.eval.oracle import oracle_policy
 
@@ -30,9 +32,9 @@ def mjx_evaluator(task: str, method: Method, agent: POIR, steps: int, observatio
 
 def run_episodes(simulator: str, task: str, method: Method, agent: POIR, params, keys, sigma_init, sigma_action,
                  steps: int, workers: int = 2, progress: bool = True,
-                 observation: str = "low_dim") -> dict[str, np.ndarray]:  # fmt: skip
-    """One episode per key (perturbations per episode), the agent seeing `observation` ("low_dim" or "object");
-    {"first_success", "diverged", "steps"} as numpy arrays."""
+                 observation: str = "low_dim", physics: str = "reference") -> dict[str, np.ndarray]:  # fmt: skip
+    """One episode per key (perturbations per episode), the agent seeing `observation` ("low_dim" or "object"), MJX
+    stepping with the `physics` preset (robosuite: its own); {"first_success", "diverged", "steps"} as numpy arrays."""
     if simulator == "robosuite":
         if method.oracle:
             raise ConfigError(f"simulator: {method.name} ranks by returns in the true simulator's own state, which "
@@ -41,7 +43,7 @@ def run_episodes(simulator: str, task: str, method: Method, agent: POIR, params,
                                        workers, progress=progress, observation=observation)  # fmt: skip
     if simulator != "mjx":
         raise ValueError(f"simulator: {simulator!r} is not one of {SIMULATORS}")
-    evaluator = mjx_evaluator(task, method, agent, steps, observation)
+    evaluator = mjx_evaluator(task, method, agent, steps, observation, physics)
     return run_batch(evaluator, params, keys, make_params(sigma_init, sigma_action))
 
 

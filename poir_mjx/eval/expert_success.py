@@ -19,9 +19,11 @@ from poir_mjx.envs.tasks import make_robosuite
 
 
 def mjx_partial_path(folder: Path, task: str, episodes: int, seed: int, sigma_init: float, steps: int,
-                     x64: bool = False) -> Path:  # fmt: skip
-    """Where ``mjx_success`` keeps the outcomes of its finished batches: one file per measurement and precision."""
-    name = f"success-{task}-mjx-n{episodes}-seed{seed}-si{sigma_init:g}-T{steps}{'-f64' if x64 else ''}.json"
+                     x64: bool = False, physics: str = "reference") -> Path:  # fmt: skip
+    """Where ``mjx_success`` keeps the outcomes of its finished batches: one file per measurement, precision and
+    physics preset."""
+    tag = f"{'-f64' if x64 else ''}{'' if physics == 'reference' else '-' + physics}"
+    name = f"success-{task}-mjx-n{episodes}-seed{seed}-si{sigma_init:g}-T{steps}{tag}.json"
     return Path(folder) / name
 
 
@@ -46,22 +48,23 @@ def _read_partial(path: Path | None, ident: dict) -> dict:
 
 
 def mjx_success(task: str, episodes: int, seed: int, sigma_init: float, steps: int | None = None, batch: int = 0,
-                partial: Path | None = None, progress: bool = False) -> dict:  # fmt: skip
+                partial: Path | None = None, progress: bool = False, physics: str = "reference") -> dict:  # fmt: skip
     """The expert in MJX: compiled rollouts (lax.scan over steps, vmap over episodes), the one the MJX demos use.
 
     Episode i's key is ``split(PRNGKey(seed), episodes)[i]`` however the episodes are batched. ``batch`` > 0 runs
-    them `batch` at a time (one compiled shape; the last batch is padded with copies of its last key, dropped);
+    them `batch` at a time (physics: a preset of ``envs.physics``) (one compiled shape; the last batch is padded with copies of its last key, dropped);
     0 runs all at once. With `partial` (a file path), every finished batch's outcomes are written there
     atomically, and a rerun of the same measurement resumes after them; "seconds" sums the runs' batches.
     """
     steps = steps or EXPERT_STEPS[task]
     batch = episodes if batch <= 0 else min(batch, episodes)
     ident = {"task": task, "episodes": episodes, "seed": seed, "sigma_init": sigma_init, "steps": steps,
-             "x64": x64_enabled()}  # a float32 run's batches are not resumed in float64, nor the reverse
+             "x64": x64_enabled(),  # a float32 run's batches are not resumed in float64, nor the reverse
+             **({"physics": physics} if physics != "reference" else {})}  # fmt: skip
     done = _read_partial(partial, ident)
     keys = jax.random.split(jax.random.PRNGKey(seed), episodes)
     params = make_params(np.full(batch, sigma_init), 0.0)
-    rollout = mjx_demos.expert_rollout(task, steps)
+    rollout = mjx_demos.expert_rollout(task, steps, physics=physics)
     from tqdm import tqdm
 
     bar = tqdm(total=episodes, initial=len(done["first_success"]), desc=f"expert {task} (MJX, batch {batch})",
@@ -82,7 +85,7 @@ def mjx_success(task: str, episodes: int, seed: int, sigma_init: float, steps: i
     first, diverged = np.array(done["first_success"]), np.array(done["diverged"], bool)
     ok = first >= 0
     return {
-        "simulator": "MJX",
+        "simulator": "MJX" if physics == "reference" else f"MJX ({physics} physics)",
         "episodes": episodes,
         "successes": int(ok.sum()),
         "diverged": int(diverged.sum()),

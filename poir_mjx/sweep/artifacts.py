@@ -125,6 +125,7 @@ def cell_hash(cfg: SweepConfig, task: str, method: str, demo_sha256: str) -> str
         **({"simulator": cfg.simulator} if cfg.simulator != "mjx" else {}),
         "x64": cfg.x64,
         **({"observation": cfg.observation} if cfg.observation != "low_dim" else {}),
+        **({"physics": cfg.physics} if cfg.physics != "reference" else {}),
     }
     return short_hash(relevant)
 

@@ -92,7 +92,7 @@ def _evaluate_cells(b: CellBatch, method, agent: POIR, params, js: list[int], pr
     sa = np.repeat([b.grid[j][1] for j in js], e)
     t0 = time.perf_counter()
     res = run_episodes(cfg.simulator, b.task, method, agent, params, keys, si, sa, cfg.max_steps, cfg.workers,
-                       progress, cfg.observation)  # fmt: skip
+                       progress, cfg.observation, cfg.physics)  # fmt: skip
     wall = time.perf_counter() - t0
     for i, j in enumerate(js):
         sl = slice(i * e, (i + 1) * e)
@@ -108,7 +108,7 @@ def run_online_cells(b: CellBatch, agent: POIR, params, offline: tuple, ckpt_dir
     episode keys (the offline cell's keys: a paired comparison). offline: the expert (obs, actions, next_obs)."""
     where = agent.config.online.simulator
     trainer = _online_trainer(b.task, agent, b.cfg.max_steps, b.cfg.simulator if where == "sweep" else where,
-                              b.cfg.simulator, b.cfg.workers, b.cfg.observation)  # fmt: skip
+                              b.cfg.simulator, b.cfg.workers, b.cfg.observation, b.cfg.physics)  # fmt: skip
     for j, (s_i, s_a) in enumerate(b.grid):
         if b.done(j):
             on_cell(b.cfg.episodes)
@@ -133,7 +133,7 @@ def run_baseline_cells(b: CellBatch, tr, ckpt_dir: Path, progress: bool, on_cell
 
     cfg = b.cfg
     bcfg = baseline_config(cfg, b.method)
-    env = make_env(b.task, observation=cfg.observation)
+    env = make_env(b.task, observation=cfg.observation, physics=cfg.physics)
     baseline = get_baseline(b.method)
     learner = baseline.make(env, bcfg, tr.obs.shape[1], tr.actions.shape[1])
     total, every = baseline.schedule(bcfg)
@@ -175,8 +175,8 @@ def _cell_slug(b: CellBatch, j: int) -> str:
 
 @functools.lru_cache(maxsize=None)
 def _online_trainer(task: str, agent: POIR, steps: int, collect_in: str, evaluate_in: str, workers: int,
-                    observation: str):  # fmt: skip
+                    observation: str, physics: str):  # fmt: skip
     from poir_mjx.online.loop import OnlineTrainer
 
-    return OnlineTrainer(make_env(task, observation=observation), agent, steps, task, collect_in, evaluate_in, workers,
+    return OnlineTrainer(make_env(task, observation=observation, physics=physics), agent, steps, task, collect_in, evaluate_in, workers,
                          observation)  # fmt: skip

@@ -12,6 +12,7 @@ from typing import Literal
 
 from poir_mjx.core.config import PRESETS, ConfigError, PlannerConfig, POIRConfig, apply_overrides, preset, to_dict
 from poir_mjx.envs.layout import OBSERVATIONS
+from poir_mjx.envs.physics import PhysicsPresetName
 from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS, TASKS
 from poir_mjx.eval.methods import METHODS, get_method
 from poir_mjx.sweep.run_folder import RETIRED, run_name_problem, upgrade_recorded
@@ -85,7 +86,11 @@ class SweepConfig:
     alone (object pose and object-to-gripper offset: 10 and 14 numbers), the paper's observation. The demos are read,
     the MJX and robosuite episodes observed and the checkpoints and cells keyed accordingly; the scripted expert still
     reads the full observation."""
-
+    physics: PhysicsPresetName = "reference"
+    """MJX physics preset (poir_mjx/envs/physics.py): "reference" (robosuite's solver options, MJX as released),
+    "fast" or "fast-capped" (results/bench/physics-cpu.md) for every MJX episode of the run: evaluation, online
+    collection and baselines' training. MJX demos are recorded with the reference physics; robosuite episodes are
+    robosuite's own."""
 
     ZERO_OK = ("seeds", "workers")
     BOUNDS = {"seeds": SEED, "episodes": (1, 10**6), "max_steps": (1, 10**6), "num_demos": (1, 10**6),
@@ -106,6 +111,10 @@ class SweepConfig:
             if METHODS[m].oracle and self.simulator != "mjx":
                 raise ConfigError(f"methods: {m} ranks by returns in the true simulator, which only the MJX evaluator "
                                   f"gives the policy; field 'simulator' is {self.simulator!r}")  # fmt: skip
+        if self.physics != "reference" and self.simulator == "robosuite" and not any(
+                get_method(m).is_baseline or get_method(m).online for m in self.methods):  # fmt: skip
+            raise ConfigError(f"physics: {self.physics!r} sets MJX's physics, and nothing in this run steps MJX "
+                              "(field 'simulator' is 'robosuite' and no method trains online)")  # fmt: skip
         base_config(self)  # the overrides, named "overrides: <dotted field>: ..."
         for name, ov in self.baseline_overrides.items():
             if name not in self.methods or not get_method(name).is_baseline:

@@ -47,7 +47,26 @@ def test_bad_physics_is_one_error_naming_the_field():
         make_env("lift", physics=PhysicsConfig(tolerance=-1.0))
     with pytest.raises(ConfigError, match="unknown preset 'fastest'"):
         make_env("lift", physics="fastest")
-    assert set(PHYSICS_PRESETS) == {"reference", "fast"}
+    with pytest.raises(ConfigError, match="physics.max_contact_points: must be positive"):
+        make_env("lift", physics=PhysicsConfig(max_contact_points=0))
+    with pytest.raises(ConfigError, match=r"physics.max_contact_points: must be in \[-1"):
+        make_env("lift", physics=PhysicsConfig(max_contact_points=-2))
+    assert set(PHYSICS_PRESETS) == {"reference", "fast", "fast-capped"}
+
+
+@pytest.mark.parametrize("task, uncapped, capped", [("lift", 56, 56), ("pick_place_can", 320, 64),
+                                                    ("nut_assembly_square", 232, 64)])  # fmt: skip
+def test_contact_cap_bounds_the_contacts_per_dimension_group(task, uncapped, capped):
+    """fast-capped is fast with at most 32 contacts per contact-dimension group (condim 3 and 4 here): PickPlaceCan's
+    and Square's constraint rows shrink 4-5x, Lift's groups are under the cap and keep every contact."""
+    from mujoco import mjx
+
+    fast, cap = make_env(task, physics="fast"), make_env(task, physics="fast-capped")
+    assert physics_preset("fast-capped") == dataclasses.replace(physics_preset("fast"), max_contact_points=32)
+    n_fast, n_cap = mjx.make_data(fast.mj_model)._impl.ncon, mjx.make_data(cap.mj_model)._impl.ncon
+    assert (n_fast, n_cap) == (uncapped, capped)
+    assert mjx.make_data(cap.model)._impl.ncon == capped  # the MJX model the env steps, not only the C model
+    assert cap.mj_model.ngeom == fast.mj_model.ngeom  # no geom or pair removed: only the contacts kept per step
 
 
 @pytest.mark.parametrize("task, floor_pairs", [("lift", 6), ("pick_place_can", 6), ("nut_assembly_square", 10)])

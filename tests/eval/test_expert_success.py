@@ -27,9 +27,10 @@ def outcome(keys):
 
 class StandIn:
     def __init__(self, fail_after: int | None = None):
-        self.calls, self.batches, self.fail_after = 0, [], fail_after
+        self.calls, self.batches, self.fail_after, self.physics = 0, [], fail_after, []
 
-    def __call__(self, task, steps):
+    def __call__(self, task, steps, style="scripted", physics="reference"):
+        self.physics.append(physics)
         def rollout(_, keys, env_params):
             if self.fail_after is not None and self.calls >= self.fail_after:
                 raise KeyboardInterrupt
@@ -126,3 +127,19 @@ def test_square_in_mjx_float32_gets_a_note_naming_the_flag(tmp_path, monkeypatch
     assert "--x64" in capsys.readouterr().err
     run_success(DemosSuccess(tasks=("nut_assembly_square",), simulator=("mjx",), episodes=2, out=tmp_path, x64=True))
     assert "--x64" not in capsys.readouterr().err
+
+
+def test_physics_preset_reaches_the_expert_and_names_its_tables(tmp_path, monkeypatch):
+    """--physics fast measures the expert in MJX with that preset: its own tables (the reference's are not
+    overwritten), its own partial records, and refused where no MJX runs."""
+    stand_in = StandIn()
+    monkeypatch.setattr(mjx_demos, "expert_rollout", stand_in)
+    assert run_success(DemosSuccess(tasks=("lift",), simulator=("mjx",), episodes=5, out=tmp_path, physics="fast")) == 0
+    assert stand_in.physics == ["fast"]
+    table = (tmp_path / "success_mjx_fast.md").read_text()
+    assert "| lift | MJX (fast physics) | 5 |" in table and "MJX physics fast" in table
+    assert not (tmp_path / "success_mjx.md").exists()
+    assert es.mjx_partial_path(tmp_path, "lift", 7, 1, SIGMA, 5, physics="fast") != es.mjx_partial_path(
+        tmp_path, "lift", 7, 1, SIGMA, 5)  # fmt: skip
+    with pytest.raises(ConfigError, match="--physics: 'fast' sets MJX's physics; --simulator robosuite"):
+        run_success(DemosSuccess(tasks=("lift",), simulator=("robosuite",), episodes=5, out=tmp_path, physics="fast"))

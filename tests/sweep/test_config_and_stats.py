@@ -4,6 +4,7 @@ import json
 import pytest
 
 from poir_mjx.core.config import ConfigError
+from poir_mjx.eval.methods import get_method
 from poir_mjx.eval.stats import pooled_p_value, wilson_interval
 from poir_mjx.sweep.artifacts import cell_hash
 from poir_mjx.sweep.config import base_config, load_sweep_config
@@ -154,3 +155,31 @@ def test_a_sweep_notes_square_in_float32_mjx(tasks, simulator, demo_simulator, n
         run.run_sweep(dataclasses.replace(cfg, x64=True), tmp_path / "results", tmp_path / "data", tmp_path / "ckpt",
                       replace_config=True)  # fmt: skip
     assert "NutAssemblySquare in MJX runs in float32" not in capsys.readouterr().err
+
+
+def test_physics_preset_keys_the_cells_and_reaches_every_mjx_episode(tmp_path, monkeypatch):
+    """A run's `physics` names the MJX physics preset: absent from the cell hash at "reference" (published cells keep
+    theirs), part of it otherwise; refused where nothing steps MJX; handed to the MJX evaluator's environment."""
+    from poir_mjx.eval import episodes
+
+    base = {"name": "x", "tasks": ["lift"], "methods": ["EBC"]}
+    f = tmp_path / "c.json"
+    cfgs = {}
+    for physics in (None, "reference", "fast", "fast-capped"):
+        f.write_text(json.dumps({**base, **({"physics": physics} if physics else {})}))
+        cfgs[physics] = load_sweep_config(f)
+    h = {p: cell_hash(c, "lift", "EBC", "d") for p, c in cfgs.items()}
+    assert h[None] == h["reference"] != h["fast"] != h["fast-capped"] != h[None]
+    f.write_text(json.dumps({**base, "physics": "fast", "simulator": "robosuite"}))
+    with pytest.raises(ConfigError, match=r"c\.json: field 'physics': 'fast' sets MJX's physics, and nothing"):
+        load_sweep_config(f)
+    f.write_text(json.dumps({**base, "physics": "fastest"}))
+    with pytest.raises(ConfigError, match=r"c\.json: field 'physics': 'fastest' is not one of"):
+        load_sweep_config(f)
+
+    seen = []
+    monkeypatch.setattr(episodes, "make_env", lambda task, observation, physics: seen.append(physics) or 1 / 0)
+    episodes.mjx_evaluator.cache_clear()
+    with pytest.raises(ZeroDivisionError):
+        episodes.run_episodes("mjx", "lift", get_method("EBC"), None, None, None, None, None, 1, physics="fast")
+    assert seen == ["fast"]
