@@ -151,3 +151,47 @@ class BenchRobosuite:
 
     def outputs(self):
         return [(self.out, "folder", "--out"), *file_pair(self.out, "robosuite-e2e", "--out")]
+
+
+@dataclasses.dataclass(frozen=True)
+class BenchPrecision:
+    """The planner's decisions under each reduced matmul setting (PlannerConfig.matmul) against true float32, on a
+    sweep run's agents: at the states its cells' episodes visit (robosuite, driven by the float32 planner) and at
+    its demos' states, with the same keys -> <out>/<name>.{json,md}. Needs robosuite."""
+
+    ZERO_OK = ("seed", "demo_states")
+    BOUNDS = {"sigma_init": NOISE, "episodes": (1, 10**4), "every": (1, 10**4), "demo_states": (0, 10**5),
+              "seed": (0, 2**31 - 1), "steps": (1, 10**5)}  # fmt: skip
+
+    run: Path = Path("results/cpu-prior")
+    """The sweep's run folder (its config.json names the grid, seeds and checkpoints)."""
+    task: Task = "lift"  # type: ignore[valid-type]
+    """A task of the run."""
+    methods: tuple[str, ...] = ("POIR-DRIL", "POIR-MOREL")
+    """Planner methods of the run (their agent: the run's checkpoint for the task and seed)."""
+    matmul: tuple[Literal["tf32", "bfloat16"], ...] = ("tf32", "bfloat16")
+    """Matmul settings compared with "float32"."""
+    sigma_init: tuple[float, ...] = (0.02, 0.3)
+    """Initial arm-joint noise of the episodes whose states are taken (the run's episode keys for that level)."""
+    episodes: int = 2
+    """Episodes per noise level (the first of the run's keys at that level)."""
+    every: int = 10
+    """A state every this many control steps."""
+    steps: int = 200
+    """Control steps per episode at most (it stops at its success)."""
+    demo_states: int = 64
+    """Demo states (from the L2 reward's expert subset) also compared."""
+    seed: int = 0
+    """A seed of the run (its agents and episode keys)."""
+    checkpoints: Path = Path("checkpoints")
+    """Where the sweep's checkpoints are."""
+    data: Path = Path("data/demos")
+    """Where the sweep's demos are (read only if an agent must be trained again)."""
+    out: Path = Path("results/bench")
+    """Output folder."""
+    name: str = "precision-cpu"
+    """Output file name without extension."""
+
+    def outputs(self):
+        return [(self.out, "folder", "--out"), (self.name, "name", "--name"), *file_pair(self.out, self.name, "--name"),
+                (self.checkpoints, "folder", "--checkpoints"), (self.data, "folder", "--data")]  # fmt: skip

@@ -40,6 +40,8 @@ COMMANDS: tuple[Command, ...] = (
     Command("bench planner", "poir_mjx.bench.options:BenchPlanner", "poir_mjx.bench.planner:run"),
     Command("bench e2e", "poir_mjx.bench.options:BenchE2E", "poir_mjx.bench.e2e:run"),
     Command("bench robosuite", "poir_mjx.bench.options:BenchRobosuite", "poir_mjx.bench.robosuite:run"),
+    Command("bench precision", "poir_mjx.bench.options:BenchPrecision", "poir_mjx.bench.precision:run",
+            "poir_mjx.bench.precision:require_robosuite"),
     Command("gpu-check", o.GpuCheck, "poir_mjx.gpucheck.command:run"),
     Command("video", "poir_mjx.video:VideoConfig", "poir_mjx.video.command:run", "poir_mjx.video.render:check_gl"),
     Command("diagnose", "poir_mjx.diagnose.config:DiagnoseConfig", "poir_mjx.diagnose.run:run",

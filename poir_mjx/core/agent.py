@@ -77,11 +77,18 @@ class POIR:
 
     @functools.cached_property
     def bc_module(self):
-        return ens.make_mlp(self.config.bc, self.act_size)
+        """The BC heads as the agent acts and plans (their matmuls: PlannerConfig.matmul)."""
+        return ens.make_mlp(self.config.bc, self.act_size, self.config.planner.matmul)
 
     @functools.cached_property
     def wm_module(self):
-        return ens.make_mlp(self.config.world_model, self.obs_size)
+        """The world models as the planner imagines with them (PlannerConfig.matmul)."""
+        return ens.make_mlp(self.config.world_model, self.obs_size, self.config.planner.matmul)
+
+    @functools.cached_property
+    def train_modules(self):
+        """(BC, world model) as they are trained, offline and online: the backend's default matmul always."""
+        return ens.make_mlp(self.config.bc, self.act_size), ens.make_mlp(self.config.world_model, self.obs_size)
 
     def __hash__(self):
         return hash((self.config, self.obs_size, self.act_size))
@@ -151,11 +158,11 @@ class POIR:
         if bc_params is not None:
             bc = bc_params
         elif cfg.bc_space == "raw":
-            bc = run("bc", self.bc_module, k_bc, obs, act)
+            bc = run("bc", self.train_modules[0], k_bc, obs, act)
         else:
             weights = act_norm.std**2 if cfg.bc_space == "weighted" else None
-            bc = run("bc", self.bc_module, k_bc, s, a, weights)
-        wm = run("wm", self.wm_module, k_wm, jnp.concatenate([s, a], -1), s2 - s) if train_world_model else None
+            bc = run("bc", self.train_modules[0], k_bc, s, a, weights)
+        wm = run("wm", self.train_modules[1], k_wm, jnp.concatenate([s, a], -1), s2 - s) if train_world_model else None
         expert = s
         if cfg.planner.l2_approx_size:
             expert = rewards.approximate_subset(s, cfg.planner.l2_approx_size, jax.random.fold_in(key, 7))

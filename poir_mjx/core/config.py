@@ -101,13 +101,20 @@ class PlannerConfig:
     transitions, as the DRIL paper's clipped cost: states as certain as the expert's tie)."""
     disagreement_quantile: float = 0.98
     """The quantile of the expert data's own disagreement that "excess" subtracts (DRIL paper: 0.98)."""
+    matmul: Literal["default", "float32", "tf32", "bfloat16"] = "default"
+    """The networks' matmuls when acting and planning (BC heads, world models; training is always "default"):
+    "default" follows jax_default_matmul_precision (the command line pins it to true float32 on accelerators,
+    devices.pin_precision; a CPU computes true float32), "float32" is true float32 whatever the process says, "tf32" / "bfloat16" inputs rounded to TF32 (10-bit mantissa) or bfloat16
+    with float32 accumulation: tensor-core speed on a GPU, the same numbers emulated on a CPU (core/ensemble.py).
+    The physics and the L2 reward's distances stay float32."""
 
     ZERO_OK = ("l2_approx_size", "head_chunk", "scoring_lambda", "l2_dims")
     EMPTY_OK = ("l2_dims",)
     UNIT = ("gripper_flip_prob",)
     # Fields added after cells were first recorded: left out of the config's hash while at their default, so the
     # cells and checkpoints recorded before them keep their hashes (poir_mjx/sweep/config.config_dict).
-    HASH_AT_DEFAULT_OMITS = ("scoring", "scoring_lambda", "gripper_noise", "gripper_flip_prob", "dril_units", "l2_dims")
+    HASH_AT_DEFAULT_OMITS = ("scoring", "scoring_lambda", "gripper_noise", "gripper_flip_prob", "dril_units", "l2_dims",
+                             "matmul")  # fmt: skip
 
     def cross_check(self, prefix: str) -> None:
         if self.dril_units != "normalized" and self.disagreement == "excess":

@@ -28,20 +28,51 @@ def hidden_layers(x, layers: int, width: int, activation: str, **dense):
     return x
 
 
+def round_to_tf32(x: jax.Array) -> jax.Array:
+    """float32 rounded to the nearest TF32 value (10 explicit mantissa bits, ties to even), kept as float32."""
+    bits = jax.lax.bitcast_convert_type(x, jnp.uint32)
+    bits = (bits + jnp.uint32(0x0FFF) + ((bits >> 13) & jnp.uint32(1))) & jnp.uint32(0xFFFFE000)
+    return jax.lax.bitcast_convert_type(bits, jnp.float32)
+
+
+def matmul_dot_general(matmul: str):
+    """nn.Dense's dot_general for a matmul setting (PlannerConfig.matmul); None: flax's, the backend's default.
+    "tf32" rounds both inputs to TF32 and asks for the backend's DEFAULT precision explicitly, whatever
+    jax_default_matmul_precision says (TF32 tensor cores on a GPU, true float32 of the rounded inputs on a CPU:
+    the same products); "bfloat16" multiplies bfloat16 inputs with
+    float32 accumulation on every backend."""
+    if matmul == "default":
+        return None
+    if matmul == "float32":
+        return functools.partial(jax.lax.dot_general, precision=jax.lax.Precision.HIGHEST)
+    if matmul not in ("tf32", "bfloat16"):
+        raise ValueError(f"matmul: {matmul!r} is not one of default, float32, tf32, bfloat16")
+    low = round_to_tf32 if matmul == "tf32" else (lambda v: v.astype(jnp.bfloat16))
+
+    def dot_general(lhs, rhs, dimension_numbers, precision=None, preferred_element_type=None, **kw):
+        return jax.lax.dot_general(low(lhs), low(rhs), dimension_numbers, precision=jax.lax.Precision.DEFAULT,
+                                   preferred_element_type=jnp.float32)  # fmt: skip
+
+    return dot_general
+
+
 class MLP(nn.Module):
     out: int
     layers: int
     width: int
     activation: str = "relu"
+    matmul: str = "default"
 
     @nn.compact
     def __call__(self, x):
-        x = hidden_layers(x, self.layers, self.width, self.activation, dtype=jnp.float32, param_dtype=jnp.float32)
-        return nn.Dense(self.out, dtype=jnp.float32, param_dtype=jnp.float32)(x)
+        dense = dict(dtype=jnp.float32, param_dtype=jnp.float32, dot_general=matmul_dot_general(self.matmul))
+        x = hidden_layers(x, self.layers, self.width, self.activation, **dense)
+        return nn.Dense(self.out, **dense)(x)
 
 
-def make_mlp(cfg: MLPConfig, out: int) -> MLP:
-    return MLP(out=out, layers=cfg.layers, width=cfg.width, activation=cfg.activation)
+def make_mlp(cfg: MLPConfig, out: int, matmul: str = "default") -> MLP:
+    """The MLP for `cfg`; `matmul` sets how it multiplies (PlannerConfig.matmul), not its parameters."""
+    return MLP(out=out, layers=cfg.layers, width=cfg.width, activation=cfg.activation, matmul=matmul)
 
 
 def init_ensemble(module: nn.Module, key: jax.Array, k: int, in_size: int) -> Any:

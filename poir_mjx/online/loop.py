@@ -250,7 +250,7 @@ class OnlineTrainer:
         err_off = deployment_error(agent.wm_module, params.reward_wm, params.obs_norm, params.act_norm, *flat, clip)
         buf = rb.add(state.buffer, *flat)
         batch = agent.config.train.batch_size
-        wm, losses, frac = finetune(agent.wm_module, inputs.optimizer, agent.config.online, batch,
+        wm, losses, frac = finetune(agent.train_modules[1], inputs.optimizer, agent.config.online, batch,
                                     self.grad_steps_per_round, state.wm, inputs.off_x, inputs.off_y, buf,
                                     params.obs_norm, params.act_norm, state.round * self.grad_steps_per_round,
                                     k_train, clip)  # fmt: skip
