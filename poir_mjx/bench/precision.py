@@ -107,7 +107,7 @@ def compare(agent: POIR, params, matmuls, groups) -> list[dict]:
 def to_markdown(res: dict) -> str:
     lines = ["# The planner's decisions under reduced matmul precision", "",
              f"Run {res['run']}, task {res['task']}, seed {res['seed']}; {res['machine']}; {res['simulator']} for the "
-             f"states. Command: `{res['command']}`.", "",
+             f"states. Agents trained on {_demos(res['demos'])}. Command: `{res['command']}`.", "",
              "Each reduced setting against true float32 at the same states with the same planner keys (candidates, "
              "noise and heads identical; only the networks' matmuls differ: inputs rounded to TF32 or bfloat16, "
              "float32 accumulation, emulated exactly on this CPU). Actions in robosuite's units (position and "
@@ -122,8 +122,13 @@ def to_markdown(res: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _demos(d: dict) -> str:
+    what = d.get("path") if d.get("source") == "file" else f"{d.get('num_demos', '?')} scripted-expert demos"
+    return f"{what} ({d.get('simulator', 'file')}, sha256 {d.get('sha256', '?')})"
+
+
 def run(opts: BenchPrecision) -> int:
-    from poir_mjx.sweep.artifacts import load_run_agent
+    from poir_mjx.sweep.artifacts import demos_for, load_run_agent
     from poir_mjx.sweep.config import load_sweep_config
 
     src = opts.run / "config.json"
@@ -133,7 +138,8 @@ def run(opts: BenchPrecision) -> int:
     if opts.task not in run_cfg.tasks:
         raise ConfigError(f"--task: {opts.task!r} is not a task of {src} (field 'tasks' {list(run_cfg.tasks)})")
     res = {"run": str(opts.run), "task": opts.task, "seed": opts.seed, "command": command_line(),
-           "machine": machine_line(), "stack": stack(), "simulator": simulator_line("robosuite"), "methods": {}}  # fmt: skip
+           "machine": machine_line(), "stack": stack(), "simulator": simulator_line("robosuite"),
+           "demos": demos_for(run_cfg, opts.task, opts.data, progress=False)[1], "methods": {}}  # fmt: skip
     groups = None
     for method in opts.methods:
         agent, params, m = load_run_agent(opts.run, opts.task, method, opts.seed, opts.data, opts.checkpoints)
