@@ -152,9 +152,14 @@ def test_a_lock_left_by_a_killed_process_is_recovered(tmp_path):
 def test_a_rerun_of_a_published_run_on_other_demos_says_so_in_one_line(tmp_path):
     from poir_mjx.sweep.run_folder import demo_note
 
-    root = project(tmp_path, cells={"config_hash": "x", "episodes": 10, "successes": 4, "data": {"sha256": "a711ae91"}})
-    local = root / "results" / "local" / PUBLISHED
-    note = demo_note(PUBLISHED, local, {"lift": "6e78b1ec"}, root / "results")
+    ran = {"jax": "0.7.0", "mujoco": "3.3.7"}
+    root = project(tmp_path, cells={"config_hash": "x", "episodes": 10, "successes": 4, "data": {"sha256": "a711ae91"},
+                                    "stack": ran})  # fmt: skip
+    local, results = root / "results" / "local" / PUBLISHED, root / "results"
+    note = demo_note(PUBLISHED, local, {"lift": "6e78b1ec"}, results, ran)
     assert note.count("\n") == 0 and "lift 6e78b1ec here, a711ae91 there" in note and "sampling error" in note
-    assert demo_note(PUBLISHED, local, {"lift": "a711ae91"}, root / "results") is None  # the same data
-    assert demo_note("other", local, {"lift": "6e78b1ec"}, root / "results") is None  # no published run of the name
+    assert "software" not in note
+    assert demo_note(PUBLISHED, local, {"lift": "a711ae91"}, results, ran) is None  # the same data and versions
+    assert demo_note("other", local, {"lift": "6e78b1ec"}, results, ran) is None  # no published run of the name
+    newer = demo_note(PUBLISHED, local, {"lift": "a711ae91"}, results, {**ran, "jax": "0.11.2"})  # other versions
+    assert newer.count("\n") == 0 and "the software (jax 0.11.2 here, 0.7.0 there)" in newer and "expert" not in newer

@@ -104,22 +104,38 @@ def check_config(out: Path, config: dict, replace_config: bool = False, defaults
 
 def published_digests(run: Path) -> dict[str, str]:
     """{task: the expert data's digest} its cell records name, of a run folder (empty when it has none)."""
+    return {task: rec["data"]["sha256"] for task, rec in _first_records(run).items()
+            if isinstance(rec.get("data"), dict) and isinstance(rec["data"].get("sha256"), str)}  # fmt: skip
+
+
+def published_versions(run: Path) -> dict[str, str]:
+    """{package: version} the first cell record of a run folder names (its "stack"; empty when it has none)."""
+    for rec in _first_records(run).values():
+        if isinstance(rec.get("stack"), dict):
+            return {k: v for k, v in rec["stack"].items() if isinstance(v, str)}
+    return {}
+
+
+def _first_records(run: Path) -> dict[str, dict]:
+    """{task: its first readable cell record} of a run folder."""
     out = {}
     for f in sorted(Path(run).glob("cells/*/*/*.json")):
         try:
             rec = json.loads(f.read_text())
         except (OSError, ValueError):
             continue
-        sha = rec.get("data", {}).get("sha256") if isinstance(rec, dict) and isinstance(rec.get("data"), dict) else None
-        if isinstance(sha, str):
-            out.setdefault(f.parent.parent.name, sha)
+        if isinstance(rec, dict):
+            out.setdefault(f.parent.parent.name, rec)
     return out
 
 
-def demo_note(name: str, out: Path, digests: dict[str, str], published_root: Path = Path("results")) -> str | None:
+def demo_note(name: str, out: Path, digests: dict[str, str], published_root: Path = Path("results"),
+              versions: dict[str, str | None] | None = None) -> str | None:  # fmt: skip
     """One line when a run of a published run's name (elsewhere, e.g. `make sweep` in results/local/) trains on other
-    expert data than the published run did: its tables then differ within sampling error, not by a regression."""
+    expert data, or runs other software versions (`versions`; default: this process's), than the published run did:
+    its tables then differ within sampling error, not by a regression."""
     from poir_mjx.outputs import published_run
+    from poir_mjx.versions import stack
 
     published = Path(published_root) / name
     if published.resolve() == Path(out).resolve() or published_run(published) is None:
@@ -127,8 +143,12 @@ def demo_note(name: str, out: Path, digests: dict[str, str], published_root: Pat
     theirs = published_digests(published)
     differ = [f"{t} {digests[t]} here, {theirs[t]} there" for t in sorted(digests) if t in theirs and
               theirs[t] != digests[t]]  # fmt: skip
-    if not differ:
+    mine, recorded = stack() if versions is None else versions, published_versions(published)
+    other = [f"{p} {mine.get(p)} here, {v} there" for p, v in sorted(recorded.items()) if mine.get(p, v) != v]
+    if not differ and not other:
         return None
-    return (f"note: the expert data differs from the published run {published}'s ({'; '.join(differ)}): robosuite "
-            "records other demos on another machine, so the tables will differ within sampling error, not by a "
-            "regression (docs/reliability.md)")
+    parts = ([f"the expert data ({'; '.join(differ)})"] if differ else []) + (
+        [f"the software ({'; '.join(other)})"] if other else [])  # fmt: skip
+    return (f"note: {' and '.join(parts)} differ from the published run {published}'s: robosuite records other "
+            "demos on another machine, and other versions compute in another order, so the tables will differ "
+            "within sampling error, not by a regression (docs/reliability.md)")
