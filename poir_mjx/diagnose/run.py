@@ -30,7 +30,7 @@ def run(cfg: DiagnoseConfig) -> int:
     if run_cfg.observation != "low_dim":  # its names, groups and robosuite episodes are the low-dim set's
         raise ConfigError(f"{src}: field 'observation' is {run_cfg.observation!r}; diagnose takes runs on the "
                           "low_dim observation only")  # fmt: skip
-    cells = [_cell_index(run_cfg, src, si) for si in cfg.sigma_init]
+    cells = [cell_index(run_cfg, src, si) for si in cfg.sigma_init]
     if max(cfg.episodes) >= run_cfg.episodes:
         raise ConfigError(f"{SOURCE}: field 'episodes': {max(cfg.episodes)} is not an episode of the cells "
                           f"(field 'episodes' of {src} is {run_cfg.episodes})")  # fmt: skip
@@ -41,7 +41,7 @@ def run(cfg: DiagnoseConfig) -> int:
     demo_error, demos = _demo_error(cfg, run_cfg, agent, params)
     for j in cells:
         for e in cfg.episodes:
-            path = episode_path(out, cfg, _grid(run_cfg)[j][0], e)
+            path = episode_path(out, cfg, noise_grid(run_cfg)[j][0], e)
             if _readable(path):
                 continue
             rec = diagnose_episode(cfg, run_cfg, agent, params, j, e, steps)
@@ -74,14 +74,14 @@ def _readable(path: Path) -> bool:
         return False
 
 
-def _grid(run_cfg) -> list[tuple[float, float]]:
+def noise_grid(run_cfg) -> list[tuple[float, float]]:
     """The run's noise cells in the order its episode keys follow (sigma_action fastest)."""
     return [(si, sa) for si in run_cfg.sigma_init for sa in run_cfg.sigma_action]
 
 
-def _cell_index(run_cfg, src: Path, si: float) -> int:
+def cell_index(run_cfg, src: Path, si: float) -> int:
     """The cell (sigma_init si, the run's first sigma_action) whose episode keys the forensics use."""
-    for j, (s_i, sa) in enumerate(_grid(run_cfg)):
+    for j, (s_i, sa) in enumerate(noise_grid(run_cfg)):
         if math.isclose(s_i, si, abs_tol=1e-9) and sa == run_cfg.sigma_action[0]:
             return j
     raise ConfigError(f"{src}: the run has no cell sigma_init {si:g} (field 'sigma_init' {list(run_cfg.sigma_init)})")
@@ -91,14 +91,16 @@ def diagnose_episode(cfg: DiagnoseConfig, run_cfg, agent, params, j: int, episod
     """One episode of cell j (its key, its arm noise; no action noise), the planner taken apart at its snapshots."""
     from tqdm import tqdm
 
-    from poir_mjx.diagnose import probe
+    from poir_mjx.diagnose import probe, rankings
     from poir_mjx.diagnose.analyze import call_record
+    from poir_mjx.diagnose.names import observation_names
+    from poir_mjx.diagnose.rankings import ranking_records
     from poir_mjx.diagnose.call_stats import real_rows
     from poir_mjx.diagnose.simulate import Oracle, run_episode
     from poir_mjx.eval.robosuite_eval import episode_streams
     from poir_mjx.rollout.evaluator import episode_keys
 
-    grid = _grid(run_cfg)
+    grid = noise_grid(run_cfg)
     si = grid[j][0]
     n_ep = run_cfg.episodes
     key = episode_keys(cfg.seed, len(grid) * n_ep)[j * n_ep + episode][None]
@@ -108,6 +110,7 @@ def diagnose_episode(cfg: DiagnoseConfig, run_cfg, agent, params, j: int, episod
                             np.asarray(step_keys[0]), steps, cfg.every, episode)  # fmt: skip
     call = probe.call_fn(agent)
     true_rewards = probe.true_rewards_fn(agent)
+    rank = rankings.scores_fn(agent, rankings.no_quaternion_dims(observation_names(cfg.task)[1]))
     k, _ = agent.head_layout()
     pc = agent.config.planner
     oracle = Oracle(cfg.task, int(seeds[0]), si) if cfg.oracle else None
@@ -123,7 +126,11 @@ def diagnose_episode(cfg: DiagnoseConfig, run_cfg, agent, params, j: int, episod
                 tr = true_rewards(params, true_obs, np.swapaxes(acts_norm, 0, 1))
                 kw["true_returns"] = {r: np.asarray(v).sum(0) for r, v in tr.items()}
                 kw["true_first"] = np.asarray(agent.normalize_obs(params, true_obs[1]))
-            calls.append({"step": snap.step, **call_record(c, k, pc.num_trajectories, pc.top_k, **kw)})
+            rec = {"step": snap.step, **call_record(c, k, pc.num_trajectories, pc.top_k, **kw)}
+            if oracle is not None:  # every ranking option on the same candidates, judged by the same true returns
+                scores = jax.tree_util.tree_map(np.asarray, rank(params, c["states"], c["actions"]))
+                rec["rankings"] = ranking_records(scores, kw["true_returns"], k, pc.top_k)
+            calls.append(rec)
     finally:
         if oracle is not None:
             oracle.close()
