@@ -53,19 +53,19 @@ def decide_fn(agent: POIR):
 def states(opts: BenchPrecision, run_cfg, agent: POIR, params) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """{group: (obs [S, ds], keys [S, 2])}: every `every` steps of the cells' first episodes, and demo states."""
     from poir_mjx.diagnose.probe import plan_fn
-    from poir_mjx.diagnose.run import _cell_index, _grid
+    from poir_mjx.diagnose.run import cell_index, noise_grid
     from poir_mjx.diagnose.simulate import run_episode
     from poir_mjx.eval.robosuite_eval import episode_streams
     from poir_mjx.rollout.evaluator import episode_keys
 
-    grid, n_ep = _grid(run_cfg), run_cfg.episodes
+    grid, n_ep = noise_grid(run_cfg), run_cfg.episodes
     if opts.episodes > n_ep:
         raise ConfigError(f"--episodes: {opts.episodes} is more than the run's {n_ep} episodes per cell")
     all_keys = episode_keys(opts.seed, len(grid) * n_ep)
     policy = plan_fn(agent)
     out = {}
     for si in opts.sigma_init:
-        j = _cell_index(run_cfg, opts.run / "config.json", si)
+        j = cell_index(run_cfg, opts.run / "config.json", si)
         seeds, step_keys = episode_streams(all_keys[j * n_ep : j * n_ep + opts.episodes], opts.steps)
         obs, keys = [], []
         for e in range(opts.episodes):

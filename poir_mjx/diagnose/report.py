@@ -10,6 +10,7 @@ import numpy as np
 
 from poir_mjx.atomic import atomic_write_text
 from poir_mjx.core.config import REWARDS
+from poir_mjx.diagnose import rankings
 from poir_mjx.diagnose.names import ACTION_NAMES, by_group, observation_names
 
 
@@ -47,6 +48,8 @@ def summarize(recs: list[dict], task: str) -> dict:
         s[r]["shares"] = dict(zip(dims, share.tolist()))
         if r != "dril":
             s[r]["group_shares"] = by_group(share, groups)
+    if first["oracle"] and all("rankings" in c for c in calls):
+        s["rankings"] = rankings.summarize(calls)
     demo = recs[0]["demos"]
     s["one_step_sq_error"] = {
         "demos": by_group(demo["error"], groups, np.mean),
@@ -118,6 +121,7 @@ def render(task: str, summary: dict) -> str:
                              ("true_gain_oracle_top_k", "true gain, true top-k")):  # fmt: skip
                 rows.append([f"{r.upper()} {label}", *[_f(s[r].get(f)) for s in summary.values()]])
         lines += [_table(["", *cols], rows)]
+    lines += rankings.render(summary)
     lines += ["", "## 2. Reward geometry: which dimensions each reward measures", "",
               "Share of the squared distance behind each reward (L2: to the nearest expert state; DRIL: between the "
               "most distant pair of BC heads, action dimensions; MOREL: between the most distant pair of world "

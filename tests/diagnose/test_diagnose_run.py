@@ -66,12 +66,17 @@ def test_diagnose_writes_records_and_the_page_and_resumes(tiny_run, tmp_path, ca
     for r in ("l2", "dril", "morel"):
         assert sum(call[r]["top_k_heads"]) == 2 and -1 <= call[r]["spearman"] <= 1 and 0 <= call[r]["top_k_overlap"] <= 1
         assert call[r]["true_gain_oracle_top_k"] >= call[r]["true_gain_model_top_k"] - 1e-6  # the oracle's top-k is best
+    from poir_mjx.diagnose.rankings import RANKINGS
+
+    assert set(call["rankings"]) == set(RANKINGS)  # every ranking option judged on the same candidates
+    for t in ("l2", "dril"):
+        assert call["rankings"]["L2" if t == "l2" else "DRIL"][t]["gain"] == pytest.approx(call[t]["true_gain_model_top_k"])
     assert len(call["shares"]["l2"]) == 19 and len(call["shares"]["dril"]) == 7
     assert sum(call["shares"]["dril"]) == pytest.approx(1.0)
     assert len(call["one_step_sq_error"]) == 19 and len(rec["demos"]["error"]) == 19
     assert len(rec["demos"]["holdout_held_out_error"]) == 19  # a world model trained on 2 of the 3 demos
     page = (out / "lift.md").read_text()
-    assert "POIR-DRIL si=0.3_seed=0" in page and "Spearman" in page and "eef_quat" in page and "held_out: cube_pos" in page
+    assert "POIR-DRIL si=0.3_seed=0" in page and "Spearman" in page and "Every ranking option" in page and "eef_quat" in page and "held_out: cube_pos" in page
     assert rec["provenance"]["demos"]["source"] == "file" and "Simulator: robosuite" in page
     assert json.loads((out / "config.json").read_text())["diagnose"] == str(tiny_run / "tiny")  # committed: read-only
     assert (out / "lift-shares.png").stat().st_size > 1000

@@ -1,0 +1,147 @@
+"""Every ranking option of the planner applied to the same candidates of one call, so the oracle can say which of
+them finds the candidates that are truly better, before any success-rate grid is run.
+
+A ranking is a reward, a scoring and a selection (``PlannerConfig``: ``scoring``, ``selection``, ``dril_units``,
+``l2_dims``); the candidates (prior, noise, world model, key) do not depend on any of them, so one call's candidates
+are ranked by every option here and the true simulator's returns of those candidates (``diagnose/simulate.py``) say
+what each option's chosen set gains over a random one. Proposal options (``gripper_noise``) change the candidates
+and are measured by their grid only.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from poir_mjx.core import candidates, selection as sel
+from poir_mjx.core.agent import POIR
+from poir_mjx.core.scoring import step_rewards
+from poir_mjx.diagnose import call_stats as cs
+
+NO_QUATERNIONS = "no_quaternions"  # l2_dims: every observation dimension but the quaternions' (from the names)
+
+# name -> (reward, planner fields, selection); every other ranking field at its default (the paper's planner)
+RANKINGS: dict[str, tuple[str, dict, str]] = {
+    "L2": ("l2", {}, "top_k"),
+    "L2 head-centred": ("l2", {"scoring": "head_centred"}, "top_k"),
+    "L2 head-balanced": ("l2", {}, "head_balanced"),
+    "L2 all-models": ("l2", {"scoring": "all_models"}, "top_k"),
+    "L2 no quaternions": ("l2", {"l2_dims": NO_QUATERNIONS}, "top_k"),
+    "DRIL": ("dril", {}, "top_k"),
+    "DRIL head-centred": ("dril", {"scoring": "head_centred"}, "top_k"),
+    "DRIL head-balanced": ("dril", {}, "head_balanced"),
+    "DRIL all-models": ("dril", {"scoring": "all_models"}, "top_k"),
+    "DRIL action units": ("dril", {"dril_units": "action"}, "top_k"),
+    "MOREL": ("morel", {}, "top_k"),
+}
+TRUTHS = ("l2", "dril")  # the true-simulator returns every ranking is judged by
+_RESET = {"scoring": "own_model", "selection": "top_k", "dril_units": "normalized", "l2_dims": ()}
+
+
+def no_quaternion_dims(groups: tuple[str, ...]) -> tuple[int, ...]:
+    """The observation dimensions outside every quaternion group (diagnose/names.py's groups)."""
+    return tuple(i for i, g in enumerate(groups) if not g.endswith("quat"))
+
+
+def ranking_agent(agent: POIR, name: str, no_quat: tuple[int, ...]) -> POIR:
+    """The agent whose planner ranks as `name` does (its prior, models and candidates unchanged)."""
+    reward, fields, _ = RANKINGS[name]
+    fields = {k: (no_quat if v == NO_QUATERNIONS else v) for k, v in fields.items()}
+    pc = dataclasses.replace(agent.config.planner, reward=reward, **{**_RESET, **fields})
+    if pc.dril_units != "normalized" and pc.disagreement == "excess":
+        pc = dataclasses.replace(pc, disagreement="raw")  # the config refuses the pair; the option is measured raw
+    return POIR(dataclasses.replace(agent.config, planner=pc), agent.obs_size, agent.act_size)
+
+
+@functools.lru_cache(maxsize=8)
+def scores_fn(agent: POIR, no_quat: tuple[int, ...]):
+    """jit((params, states [H + 1, K, M, ds], actions [H, K, M, da]) -> {name: [K, M]}): each ranking's score of
+    the imagined candidates (``POIR.imagine``'s states and actions; -inf on padding)."""
+    k, m = agent.head_layout()
+    real = sel.real_mask(k, m, agent.config.planner.num_trajectories)
+    variants = {name: ranking_agent(agent, name, no_quat) for name in RANKINGS}
+
+    def fn(params, states, actions):
+        out = {}
+        for name, v in variants.items():
+            pc = v.config.planner
+            if pc.scoring == "all_models":
+                ret = candidates.all_models_score(v, params, states[0], actions)
+            else:
+                ret = step_rewards(v, pc.reward, params, states, actions).sum(0)
+            ret = jnp.where(real, ret, -jnp.inf)
+            out[name] = sel.head_centred(ret, real) if pc.scoring == "head_centred" else ret
+        return out
+
+    return jax.jit(fn)
+
+
+def chosen(name: str, scores: np.ndarray, k: int, top_k: int) -> np.ndarray:
+    """Indices (real-trajectory order n = k + K j) of the trajectories `name` averages: its top_k, or the best
+    max(1, top_k // K) of every head (``selection.head_balanced_mean``)."""
+    n_real = np.isfinite(scores).sum()
+    ret = cs.real_rows(scores, n_real)
+    if RANKINGS[name][2] != "head_balanced":
+        return cs.top_k_indices(ret, top_k)
+    heads = cs.real_heads(k, n_real)
+    per_head = max(1, top_k // k)
+    return np.concatenate([np.flatnonzero(heads == h)[cs.top_k_indices(ret[heads == h], per_head)] for h in range(k)])
+
+
+def ranking_records(scores: dict, true_returns: dict, k: int, top_k: int) -> dict:
+    """{name: {truth: {spearman, gain}}}: each ranking against each true return of the same candidates; gain: the
+    true return of its chosen set above the candidates' mean (random selection's expectation is 0)."""
+    out = {}
+    for name, s in scores.items():
+        s = np.asarray(s)
+        ret = cs.real_rows(s, np.isfinite(s).sum())
+        pick = chosen(name, s, k, top_k)
+        out[name] = {}
+        for t in TRUTHS:
+            tr = np.asarray(true_returns[t], np.float64)
+            out[name][t] = {"spearman": cs.spearman(ret, tr), "gain": float(tr[pick].mean() - tr.mean())}
+    return out
+
+
+def summarize(calls: list[dict]) -> dict:
+    """{truth: {name: {spearman, gain, gain_se, gain_positive}, "oracle": {gain}}} over a cell's planner calls: the
+    mean Spearman and true gain of each ranking, the gain's standard error over calls and the share of calls where
+    it beat a random choice; "oracle": what the true top-k gains (the most any ranking of these candidates could)."""
+    out: dict = {}
+    for t in TRUTHS:
+        out[t] = {}
+        for name in RANKINGS:
+            g = np.array([c["rankings"][name][t]["gain"] for c in calls], np.float64)
+            rho = np.array([c["rankings"][name][t]["spearman"] for c in calls], np.float64)
+            out[t][name] = {"spearman": float(np.nanmean(rho)) if np.isfinite(rho).any() else float("nan"),
+                            "gain": float(g.mean()), "gain_se": float(g.std(ddof=1) / np.sqrt(len(g))) if len(g) > 1 else float("nan"),
+                            "gain_positive": float(np.mean(g > 0))}  # fmt: skip
+        out[t]["oracle"] = {"gain": float(np.mean([c[t]["true_gain_oracle_top_k"] for c in calls]))}
+    return out
+
+
+def render(summary: dict) -> list[str]:
+    """The page's section (markdown lines) for cells whose records have rankings."""
+    cells = {c: s["rankings"] for c, s in summary.items() if "rankings" in s}
+    if not cells:
+        return []
+    lines = ["", "## Every ranking option on the same candidates", "",
+             "Each option of the planner's ranking (reward, `scoring`, `selection`, `dril_units`, `l2_dims`) ranks the "
+             "same candidates of every call; cell: the true return its chosen set gains over the candidates' mean "
+             "(a random choice gains 0 on average) ± its standard error over calls, then Spearman with the true "
+             "returns. Above zero by 2 standard errors: the option's ranking finds truly better candidates.", ""]  # fmt: skip
+    for t in TRUTHS:
+        rows = [[name, *[_cell(s[t][name]) for s in cells.values()]] for name in RANKINGS]
+        rows.append(["the true top-k (oracle)", *[f"{s[t]['oracle']['gain']:+.3g}" for s in cells.values()]])
+        lines += [f"**Judged by the true {t.upper()} return**", "",
+                  "| ranking | " + " | ".join(cells) + " |", "|" + "---|" * (len(cells) + 1),
+                  *["| " + " | ".join(r) + " |" for r in rows], ""]  # fmt: skip
+    return lines
+
+
+def _cell(x: dict) -> str:
+    return f"{x['gain']:+.3g} ± {x['gain_se']:.2g} ({x['spearman']:+.2f})"
