@@ -107,21 +107,32 @@ def ranking_records(scores: dict, true_returns: dict, k: int, top_k: int) -> dic
     return out
 
 
-def summarize(calls: list[dict]) -> dict:
-    """{truth: {name: {spearman, gain, gain_se, gain_positive}, "oracle": {gain}}} over a cell's planner calls: the
-    mean Spearman and true gain of each ranking, the gain's standard error over calls and the share of calls where
-    it beat a random choice; "oracle": what the true top-k gains (the most any ranking of these candidates could)."""
+def summarize(episodes: list[list[dict]]) -> dict:
+    """{truth: {name: {spearman, gain, gain_se, episodes_ahead}, "oracle": {gain}}} over a cell's planner calls
+    (`episodes`: each episode's calls): the mean Spearman and true gain of each ranking over calls, the gain's
+    standard error clustered by episode (calls of one episode are not independent) and the episodes whose mean gain
+    is above 0; "oracle": what the true top-k gains (the most any ranking of these candidates could)."""
     out: dict = {}
     for t in TRUTHS:
         out[t] = {}
         for name in RANKINGS:
-            g = np.array([c["rankings"][name][t]["gain"] for c in calls], np.float64)
-            rho = np.array([c["rankings"][name][t]["spearman"] for c in calls], np.float64)
+            gains = [np.array([c["rankings"][name][t]["gain"] for c in calls], np.float64) for calls in episodes]
+            rho = np.array([c["rankings"][name][t]["spearman"] for calls in episodes for c in calls], np.float64)
             out[t][name] = {"spearman": float(np.nanmean(rho)) if np.isfinite(rho).any() else float("nan"),
-                            "gain": float(g.mean()), "gain_se": float(g.std(ddof=1) / np.sqrt(len(g))) if len(g) > 1 else float("nan"),
-                            "gain_positive": float(np.mean(g > 0))}  # fmt: skip
-        out[t]["oracle"] = {"gain": float(np.mean([c[t]["true_gain_oracle_top_k"] for c in calls]))}
+                            "gain": float(np.concatenate(gains).mean()), "gain_se": clustered_se(gains),
+                            "episodes_ahead": sum(int(g.mean() > 0) for g in gains), "episodes": len(gains)}  # fmt: skip
+        out[t]["oracle"] = {"gain": float(np.mean([c[t]["true_gain_oracle_top_k"] for calls in episodes for c in calls]))}
     return out
+
+
+def clustered_se(groups: list[np.ndarray]) -> float:
+    """The standard error of the mean of all values, clustered by group (CR1: sqrt(G / (G - 1) * sum_g (sum of
+    group g's deviations from the overall mean)^2) / n); NaN with fewer than two groups."""
+    groups = [np.asarray(g, np.float64) for g in groups if len(g)]
+    if len(groups) < 2:
+        return float("nan")
+    n, mean = sum(len(g) for g in groups), np.concatenate(groups).mean()
+    return float(np.sqrt(len(groups) / (len(groups) - 1) * sum(np.sum(g - mean) ** 2 for g in groups)) / n)
 
 
 def render(summary: dict) -> list[str]:
@@ -132,8 +143,9 @@ def render(summary: dict) -> list[str]:
     lines = ["", "## Every ranking option on the same candidates", "",
              "Each option of the planner's ranking (reward, `scoring`, `selection`, `dril_units`, `l2_dims`) ranks the "
              "same candidates of every call; cell: the true return its chosen set gains over the candidates' mean "
-             "(a random choice gains 0 on average) ± its standard error over calls, then Spearman with the true "
-             "returns. Above zero by 2 standard errors: the option's ranking finds truly better candidates.", ""]  # fmt: skip
+             "(a random choice gains 0 on average) ± its standard error clustered by episode, the episodes whose mean "
+             "gain is above 0, then Spearman with the true returns. Above zero by 2 standard errors in most episodes: "
+             "the option's ranking finds truly better candidates.", ""]  # fmt: skip
     for t in TRUTHS:
         rows = [[name, *[_cell(s[t][name]) for s in cells.values()]] for name in RANKINGS]
         rows.append(["the true top-k (oracle)", *[f"{s[t]['oracle']['gain']:+.3g}" for s in cells.values()]])
@@ -144,4 +156,4 @@ def render(summary: dict) -> list[str]:
 
 
 def _cell(x: dict) -> str:
-    return f"{x['gain']:+.3g} ± {x['gain_se']:.2g} ({x['spearman']:+.2f})"
+    return f"{x['gain']:+.3g} ± {x['gain_se']:.2g}, {x['episodes_ahead']}/{x['episodes']} ({x['spearman']:+.2f})"

@@ -49,7 +49,7 @@ def summarize(recs: list[dict], task: str) -> dict:
         if r != "dril":
             s[r]["group_shares"] = by_group(share, groups)
     if first["oracle"] and all("rankings" in c for c in calls):
-        s["rankings"] = rankings.summarize(calls)
+        s["rankings"] = rankings.summarize([r["calls"] for r in recs])
     demo = recs[0]["demos"]
     s["one_step_sq_error"] = {
         "demos": by_group(demo["error"], groups, np.mean),

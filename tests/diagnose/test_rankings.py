@@ -78,3 +78,14 @@ def test_judged_by_its_own_scores_a_ranking_gains_what_the_oracle_gains():
 
 def test_no_quaternions_on_lift_is_the_documented_subset():
     assert rankings.no_quaternion_dims(observation_names("lift")[1]) == (0, 1, 2, 7, 8, 9, 10, 11, 16, 17, 18)
+
+
+def test_the_gains_error_is_clustered_by_episode():
+    """Two episodes of constant gains 1 and 3: the clustered error is that of the two episode means (1), not the
+    much smaller one of four independent calls."""
+    assert rankings.clustered_se([np.array([1.0, 1.0]), np.array([3.0, 3.0])]) == pytest.approx(1.0)
+    assert np.isnan(rankings.clustered_se([np.array([1.0, 2.0])]))
+    calls = [{"rankings": {n: {t: {"gain": g, "spearman": 0.5} for t in rankings.TRUTHS} for n in rankings.RANKINGS},
+              **{t: {"true_gain_oracle_top_k": 4.0} for t in rankings.TRUTHS}} for g in (2.0, 2.0, -1.0, -1.0)]  # fmt: skip
+    s = rankings.summarize([calls[:2], calls[2:]])["l2"]
+    assert s["L2"]["gain"] == pytest.approx(0.5) and s["L2"]["episodes_ahead"] == 1 and s["oracle"]["gain"] == 4.0
