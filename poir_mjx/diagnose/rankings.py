@@ -80,26 +80,25 @@ def scores_fn(agent: POIR, no_quat: tuple[int, ...]):
     return jax.jit(fn)
 
 
-def chosen(name: str, scores: np.ndarray, k: int, top_k: int) -> np.ndarray:
-    """Indices (real-trajectory order n = k + K j) of the trajectories `name` averages: its top_k, or the best
-    max(1, top_k // K) of every head (``selection.head_balanced_mean``)."""
-    n_real = np.isfinite(scores).sum()
-    ret = cs.real_rows(scores, n_real)
+def chosen(name: str, ret: np.ndarray, k: int, top_k: int) -> np.ndarray:
+    """Indices into the real trajectories' returns `ret` [N] (order n = k + K j) of those `name` averages: its
+    top_k, or the best max(1, top_k // K) of every head (``selection.head_balanced_mean``)."""
     if RANKINGS[name][2] != "head_balanced":
         return cs.top_k_indices(ret, top_k)
-    heads = cs.real_heads(k, n_real)
+    heads = cs.real_heads(k, len(ret))
     per_head = max(1, top_k // k)
     return np.concatenate([np.flatnonzero(heads == h)[cs.top_k_indices(ret[heads == h], per_head)] for h in range(k)])
 
 
 def ranking_records(scores: dict, true_returns: dict, k: int, top_k: int) -> dict:
-    """{name: {truth: {spearman, gain}}}: each ranking against each true return of the same candidates; gain: the
-    true return of its chosen set above the candidates' mean (random selection's expectation is 0)."""
+    """{name: {truth: {spearman, gain}}}: each ranking ([K, M] scores) against each true return ([N]) of the same
+    candidates; gain: the true return of its chosen set above the candidates' mean (random selection's expectation
+    is 0)."""
+    n = len(true_returns[TRUTHS[0]])
     out = {}
     for name, s in scores.items():
-        s = np.asarray(s)
-        ret = cs.real_rows(s, np.isfinite(s).sum())
-        pick = chosen(name, s, k, top_k)
+        ret = cs.real_rows(s, n)
+        pick = chosen(name, ret, k, top_k)
         out[name] = {}
         for t in TRUTHS:
             tr = np.asarray(true_returns[t], np.float64)

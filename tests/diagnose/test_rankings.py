@@ -59,7 +59,7 @@ def test_the_chosen_set_is_what_the_planner_averages(trained, name):
                  2, 2)  # fmt: skip
     ret, first = v.rollouts(params, obs[3], key)
     k, _ = agent.head_layout()
-    pick = rankings.chosen(name, s[name], k, agent.config.planner.top_k)
+    pick = rankings.chosen(name, cs.real_rows(s[name], 62), k, agent.config.planner.top_k)
     firsts = cs.real_rows(np.asarray(first), agent.config.planner.num_trajectories)
     np.testing.assert_allclose(firsts[pick].mean(0), v.select(ret, first, key), rtol=1e-5, atol=1e-6)
     if name == "DRIL head-balanced":  # top_k 4 over K heads: the best of each head
