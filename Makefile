@@ -5,6 +5,7 @@
 #   STACK=cpu      .venv          Python 3.11, jax 0.7.0, mujoco 3.3.7, robosuite (default: fastest MJX on a CPU)
 #   STACK=current  .venv-current  Python 3.12+, jax 0.11.2, mujoco 3.17.0, numpy 2, no robosuite
 #   STACK=gpu      .venv-gpu      the current set plus jax's CUDA plugin (CUDA=cuda13, or cuda12)
+#   STACK=warp     .venv-warp     the current set plus warp-lang (physics "warp": MuJoCo Warp behind MJX's API)
 STACK  ?= cpu
 CUDA   ?= cuda13
 # The first interpreter of at least the given version: plain names, then pyenv's folders.
@@ -24,8 +25,13 @@ else ifeq ($(STACK),gpu)
   PYTHON ?= $(call find_python,python3.12 python3.13,3.12)
   VENV   := .venv-gpu
   LOCKS  := requirements/current.txt requirements/$(CUDA).txt
+else ifeq ($(STACK),warp)
+  PYTHON ?= $(call find_python,python3.12 python3.13,3.12)
+  VENV   := .venv-warp
+  LOCKS  := requirements/current.txt requirements/warp.txt
+  export JAX_ENABLE_COMPILATION_CACHE ?= false
 else
-  $(error STACK must be cpu, current or gpu, got '$(STACK)')
+  $(error STACK must be cpu, current, gpu or warp, got '$(STACK)')
 endif
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
@@ -49,12 +55,13 @@ DEMO_STYLE ?= scripted
 # Extra flags for make demos, e.g. DEMO_ARGS='--tasks lift'.
 DEMO_ARGS ?=
 
-.PHONY: help venv envs demos expert-success diagnose test test-cpu test-current test-fast bench-env bench-planner bench-e2e bench-robosuite bench sweep sweep-online eval xsim video ablations prior-study report wheels gpu-check gpu-carry gpu-demos clean
+.PHONY: help venv envs demos expert-success diagnose test test-cpu test-current test-warp test-fast warp-parts warp-install bench-env bench-planner bench-e2e bench-robosuite bench sweep sweep-online eval xsim video ablations prior-study report wheels gpu-check gpu-carry gpu-demos clean
 
 help:
 	@echo "make test       - both dependency sets: the full suite on the CPU set, the current-stack suite (CI runs this)"
 	@echo "make test-cpu   - the full suite in .venv (Python 3.11, jax 0.7.0, robosuite)"
 	@echo "make test-current - the suite in .venv-current (Python 3.12, jax 0.11.2, numpy 2, no robosuite; robosuite tests skipped)"
+	@echo "make test-warp  - MuJoCo Warp as the physics (physics \"warp\") on the CPU, in .venv-warp (the current set plus warp-lang)"
 	@echo "make wheels     - download the current set's wheels (+ CUDA plugin) to wheels/ for a machine with no network"
 	@echo "any target with STACK=current or STACK=gpu uses that set, e.g. make sweep STACK=gpu SWEEP=experiments/paper.json"
 	@echo "make sweep      - main job on the CPU-sized default (see README)"
@@ -94,10 +101,11 @@ demos: $(STAMP)
 expert-success: $(STAMP)
 	$(PY) -m poir_mjx.cli demos success --simulator robosuite --episodes 100
 
-# CI (.ci/run) runs exactly this: both dependency sets, one after the other.
+# CI (.ci/run) runs exactly this: both dependency sets, one after the other, then MuJoCo Warp's tests.
 test:
 	$(MAKE) test-cpu
 	$(MAKE) test-current
+	$(MAKE) test-warp
 
 test-cpu:
 	$(MAKE) STACK=cpu venv
@@ -118,6 +126,13 @@ test-current:
 	  eval JAX_ENABLE_COMPILATION_CACHE=false .venv-current/bin/python -m pytest -v -p no:faulthandler \
 	    --durations=10 $$group || exit 1; \
 	done
+
+# MuJoCo Warp (physics "warp") on the CPU: Warp compiles its CPU kernels once per machine (about a minute, cached in
+# ~/.cache/warp), then the Lift tests step it against MJX's JAX pipeline at batch 2-3 (tests/envs/test_warp.py).
+test-warp:
+	$(MAKE) STACK=warp venv
+	JAX_ENABLE_COMPILATION_CACHE=false .venv-warp/bin/python -m pytest -v -p no:faulthandler --durations=5 \
+	  -m "needs_warp or not slow" tests/envs/test_warp.py tests/envs/test_physics.py tests/sweep/test_config_and_stats.py
 
 test-fast: $(STAMP)
 	$(PY) -m pytest -q -m "not slow" tests
@@ -225,6 +240,31 @@ gpu-carry:
 	  --platform manylinux_2_17_x86_64 --platform manylinux2014_x86_64 --platform any -d .whl $(GPU_CARRY_PINS)
 	@du -sh .whl && ls .whl
 	$(MAKE) gpu-demos
+
+# MuJoCo Warp on a lent GPU (physics "warp"; the GPU check's last stage): warp-lang's wheel (149 MB) is more than
+# one device call carries (64 MiB), so make warp-parts cuts it here into parts of 48 MiB with their digests, each
+# carried by one call to a warm machine; the last call runs make warp-install there (docs/gpu.md, "MuJoCo Warp").
+WARP_PARTS ?= .warp-parts
+WARP_PIN   ?= warp-lang==1.18.0
+warp-parts:
+	rm -rf $(WARP_PARTS) && mkdir -p $(WARP_PARTS)/wheel
+	python3 -m pip download --quiet --no-deps --only-binary=:all: --python-version 3.12 --implementation cp \
+	  --platform manylinux_2_28_x86_64 --platform manylinux_2_17_x86_64 --platform manylinux2014_x86_64 \
+	  -d $(WARP_PARTS)/wheel $(WARP_PIN)
+	cd $(WARP_PARTS) && whl=$$(ls wheel/*.whl) && basename $$whl > WHEEL && split -b 48M -d $$whl part- && \
+	  sha256sum $$whl | sed "s| wheel/| /tmp/|" > SHA256 && ls part-* | wc -l > PARTS && rm -r wheel
+	@ls -l $(WARP_PARTS)
+
+# On the lent machine, after every part was carried: join, check the digest, install beside the carried MuJoCo.
+warp-install:
+	@test -f $(WARP_PARTS)/WHEEL -a -f $(WARP_PARTS)/SHA256 -a -f $(WARP_PARTS)/PARTS || \
+	  { echo "$(WARP_PARTS): WHEEL, SHA256 or PARTS missing (carry them with any part)"; exit 2; }
+	@n=$$(ls $(WARP_PARTS)/part-* 2>/dev/null | wc -l); test "$$n" = "$$(cat $(WARP_PARTS)/PARTS)" || \
+	  { echo "$(WARP_PARTS): $$n of $$(cat $(WARP_PARTS)/PARTS) parts here (carry the rest, one call each)"; exit 2; }
+	cat $(WARP_PARTS)/part-* > /tmp/$$(cat $(WARP_PARTS)/WHEEL) && sha256sum -c $(WARP_PARTS)/SHA256
+	$(GPU_PYTHON) -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade --target $(GPU_SITE) \
+	  /tmp/$$(cat $(WARP_PARTS)/WHEEL)
+	$(GPU_ENV) $(GPU_PYTHON) -c "from poir_mjx.optional import warp_installed; assert warp_installed(); print('MuJoCo Warp: ready')"
 
 # The demos the GPU check trains on, recorded here (robosuite, make demos) and carried as compact copies (the same
 # transitions and digest, about a sixth of the size): .gpu-demos/lift.hdf5 and pick_place_can.hdf5.

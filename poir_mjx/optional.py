@@ -32,3 +32,12 @@ def has_robosuite() -> bool:
     except ImportError:
         return False
     return True
+
+
+def warp_installed() -> bool:
+    """Whether MJX can run MuJoCo Warp here: mujoco-mjx 3.17 or newer, which ships it, and warp-lang importable."""
+    try:
+        from mujoco.mjx._src import io
+    except ImportError:
+        return False
+    return bool(getattr(getattr(io, "mjxw", None), "WARP_INSTALLED", False))

@@ -17,15 +17,19 @@ if sys.platform.startswith("linux"):
 
 
 def pytest_collection_modifyitems(config, items):
-    """Skip the tests that need robosuite (export, reference simulator, robosuite demos) where it is missing."""
-    from poir_mjx.optional import has_robosuite
+    """Skip the tests that need robosuite (export, reference simulator, robosuite demos) or MuJoCo Warp where it is
+    missing."""
+    from poir_mjx.optional import has_robosuite, warp_installed
 
-    if has_robosuite():
-        return
-    skip = pytest.mark.skip(reason="needs robosuite, which the current dependency set (Python 3.12+, numpy 2) has not")
+    missing = {}
+    if not has_robosuite():
+        missing["needs_robosuite"] = "needs robosuite, which the current dependency set (Python 3.12+, numpy 2) has not"
+    if not warp_installed():
+        missing["needs_warp"] = "needs MuJoCo Warp: mujoco-mjx 3.17 with warp-lang 1.18.0 (make test-warp)"
     for item in items:
-        if "needs_robosuite" in item.keywords:
-            item.add_marker(skip)
+        for marker, reason in missing.items():
+            if marker in item.keywords:
+                item.add_marker(pytest.mark.skip(reason=reason))
 
 
 def pytest_runtest_teardown(item, nextitem):

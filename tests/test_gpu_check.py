@@ -65,6 +65,7 @@ def test_dry_run_runs_every_stage_and_a_rerun_skips_them(tmp_path, capsys):
     assert len({r["demo_sha256"] for r in rows["cell"]}) == 1 and rows["cell"][0]["demos"] == "file"
     assert {(r["method"], r["episodes"]) for r in rows["sweep"]} == {("EBC", 2), ("POIR-DRIL", 2)}
     assert rows["expert"][0]["task"] == "lift" and rows["expert"][0]["episodes"] == 2
+    assert rows["warp"][0]["not_run"].startswith("warp-lang is not installed")  # the current set has no warp-lang
     summary = (out / "summary.md").read_text()
     assert "## env: complete" in summary and "## expert: complete" in summary
     capsys.readouterr()

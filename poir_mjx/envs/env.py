@@ -23,7 +23,7 @@ from flax import struct
 from mujoco import mjx
 
 from poir_mjx.compat import x64_enabled
-from poir_mjx.envs import osc
+from poir_mjx.envs import osc, warp
 from poir_mjx.envs import observation
 from poir_mjx.envs.layout import ACTION_SIZE, OBS_KEYS, obs_sizes, observation_keys
 from poir_mjx.envs.model import ModelFileError, load_model, load_variants, model_indices
@@ -83,6 +83,16 @@ class TaskEnv:
     variants: ModelVariants | None = None  # per-episode object sizes (Lift), variant 0 = `model`
     observation: str = "low_dim"  # what obs_vector gives the policy: "low_dim" or "object" (layout.OBSERVATIONS)
     physics: PhysicsConfig = REFERENCE  # solver settings (physics.py), already in `model`'s options
+    worlds: int = 1  # MuJoCo Warp only: the episodes of the batch being traced, which share the contact buffers
+
+    @property
+    def on_warp(self) -> bool:
+        return self.physics.impl == "warp"
+
+    def sized_for(self, worlds: int) -> TaskEnv:
+        """This environment for a traced batch of `worlds` episodes (``rollout.protocol.for_batch``): MuJoCo Warp's
+        shared contact buffers are sized by it when ``reset`` allocates; with MJX's JAX pipeline, itself."""
+        return _sized(self, int(worlds)) if self.on_warp and worlds != self.worlds else self
 
     def model_for(self, variant) -> mjx.Model:
         """The episode's model: `model`, or its object-size variant (``info["variant"]``)."""
@@ -127,7 +137,11 @@ class TaskEnv:
         object-size variant `variant` (0: the exported model)."""
         i = self._idx
         m = self.model_for(variant)
-        d = mjx.make_data(self.model).replace(qpos=jnp.asarray(qpos, float_dtype()))
+        if self.on_warp:  # the batch's shared contact buffers, allocated outside the trace (warp.py)
+            d = warp.make_data(self.mj_model, self.worlds, self.physics.warp_contacts)
+        else:
+            d = mjx.make_data(self.model)
+        d = d.replace(qpos=jnp.asarray(qpos, float_dtype()))
         with solver_scope(self.physics):
             d = mjx.forward(m, d)
         info = {
@@ -175,7 +189,7 @@ class TaskEnv:
         i = self._idx
         jacp, jacr = mjx.jac(m, d, d.site_xpos[i["eef_site"]], self.mj_model.site_bodyid[i["eef_site"]])
         dof = i["arm_dof"]
-        mass = mjx.full_m(m, d)[dof][:, dof]
+        mass = (warp.full_m(self.mj_model, m, d) if self.on_warp else mjx.full_m(m, d))[dof][:, dof]
         return jacp[dof].T, jacr[dof].T, mass
 
     def step(self, state: State, action: jax.Array) -> State:
@@ -199,8 +213,11 @@ class TaskEnv:
 
         def substep(carry, k):
             d, goal_pos, goal_ori = carry
-            d = mjx.fwd_position(m, d)
-            d = mjx.fwd_velocity(m, d)
+            if self.on_warp:  # Warp has forward and step only: robosuite's order (forward, controller, step)
+                d = mjx.forward(m, d)
+            else:
+                d = mjx.fwd_position(m, d)
+                d = mjx.fwd_velocity(m, d)
             ref_pos = d.site_xpos[i["eef_site"]]
             ref_ori = d.site_xmat[i["eef_site"]]
             # The goal is set on the first substep from the then-current pose ('achieved' mode).
@@ -216,6 +233,8 @@ class TaskEnv:
             )  # fmt: skip
             ctrl = d.ctrl.at[i["arm_act"]].set(jnp.clip(tau, arm_lo, arm_hi)).at[i["grip_act"]].set(grip_ctrl)
             d = d.replace(ctrl=ctrl)
+            if self.on_warp:
+                return (mjx.step(m, d), goal_pos, goal_ori), None
             d = mjx.fwd_actuation(m, d)
             d = mjx.fwd_acceleration(m, d)
             d = mjx.solve(m, d)
@@ -239,10 +258,12 @@ class TaskEnv:
         new = State(data=d, obs=obs, done=diverged | (step >= self.horizon), success=success, info=info)
         # A diverged episode keeps its last finite state (flagged); a finished one stops changing.
         keep_old = state.done | diverged
-        out = jax.tree_util.tree_map(lambda old, nw: jnp.where(keep_old, old, nw), state, new)
-        return out.replace(
+        keep = jax.tree_util.tree_map(lambda old, nw: jnp.where(keep_old, old, nw), state.replace(data=()),
+                                      new.replace(data=()))  # fmt: skip
+        return keep.replace(
+            data=warp.keep_where(keep_old, state.data, new.data),
             done=state.done | new.done,
-            info=dict(out.info, diverged=state.info["diverged"] | diverged),
+            info=dict(keep.info, diverged=state.info["diverged"] | diverged),
         )
 
 
@@ -269,9 +290,14 @@ def _observed(env: TaskEnv, observation: str) -> TaskEnv:
 def _make_env(task: str, envs_dir: str | None, x64: bool, physics: PhysicsConfig = REFERENCE) -> TaskEnv:
     check_task(task)
     mj_model, meta = load_model(task, envs_dir, physics)
-    model = mjx.put_model(mj_model)
+    model = warp.put_model(mj_model) if physics.impl == "warp" else mjx.put_model(mj_model)
     variants = load_variants(task, envs_dir, mj_model, model, meta, physics)
     return TaskEnv(task=task, mj_model=mj_model, model=model, meta=meta, variants=variants, physics=physics)
+
+
+@functools.lru_cache(maxsize=None)
+def _sized(env: TaskEnv, worlds: int) -> TaskEnv:
+    return dataclasses.replace(env, worlds=worlds)
 
 
 def batched(task: str, envs_dir: str | None = None, physics: PhysicsConfig | str | None = None):
@@ -282,8 +308,11 @@ def batched(task: str, envs_dir: str | None = None, physics: PhysicsConfig | str
 @functools.lru_cache(maxsize=None)
 def _batched(task: str, envs_dir: str | None, x64: bool, physics: PhysicsConfig = REFERENCE):
     env = _make_env(task, envs_dir, x64, physics)
-    return (
-        jax.jit(jax.vmap(env.reset)),
-        jax.jit(jax.vmap(env.reset_to)),
-        jax.jit(jax.vmap(env.step)),
-    )
+
+    def reset(rng, params):
+        return jax.vmap(env.sized_for(rng.shape[0]).reset)(rng, params)
+
+    def reset_to(qpos, rng, params, *variant):
+        return jax.vmap(env.sized_for(rng.shape[0]).reset_to)(qpos, rng, params, *variant)
+
+    return jax.jit(reset), jax.jit(reset_to), jax.jit(jax.vmap(env.step))

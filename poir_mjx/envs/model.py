@@ -52,7 +52,8 @@ def load_variants(task: str, envs_dir: str | Path | None, mj_model: mujoco.MjMod
     sizes = variant_sizes(meta, mj_model.geom_size[gid])
     xml, meshdir = files.xml.read_text(), str(files.xml.parent.resolve()) + "/"
     edit = lambda spec: edit_spec(spec, physics)  # noqa: E731
-    models = [model] + [mjx.put_model(compile_variant(xml, meshdir, meta, sz, edit)) for sz in sizes[1:]]
+    put = (lambda mj: mjx.put_model(mj, impl="warp")) if physics.impl == "warp" else mjx.put_model  # noqa: E731
+    models = [model] + [put(compile_variant(xml, meshdir, meta, sz, edit)) for sz in sizes[1:]]
     return ModelVariants.build(models, sizes)
 
 

@@ -18,7 +18,7 @@ from poir_mjx.typed_config import ConfigError, check
 if TYPE_CHECKING:  # no mujoco import here: the option dataclasses (poir_mjx/options.py) name the presets
     import mujoco
 
-PhysicsPresetName = Literal["reference", "fast", "fast-capped"]
+PhysicsPresetName = Literal["reference", "fast", "fast-capped", "warp"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -50,8 +50,26 @@ class PhysicsConfig:
     group, the deepest kept, so the constraint rows (and the solver's cost) no longer grow with every candidate
     pair. -1: no cap (every candidate pair's contacts: 344 for PickPlaceCan, 80 for Lift). A load-time edit."""
 
+    impl: Literal["jax", "warp"] = "jax"
+    """MJX's implementation: "jax" (MJX's own JAX pipeline, every version) or "warp" (MuJoCo Warp's kernels behind
+    MJX's API: mujoco-mjx 3.17 with warp-lang 1.18.0, ``make venv STACK=warp``; CUDA GPUs and, slowly, CPUs). Warp
+    runs MuJoCo's own solver, so the solver patch does not apply; its contact buffers are shared by a batch's
+    episodes and sized for the batch when it is traced (``envs/warp.py``)."""
+    warp_contacts: int = 0
+    """MuJoCo Warp only: contacts kept per episode (its buffers hold this many times the batch size). 0: every
+    candidate pair's contacts, as many as MJX's JAX pipeline allocates (80 for Lift, 344 for PickPlaceCan), which
+    cannot overflow; a smaller budget is cheaper and drops the contacts past it when a batch has more."""
+
     SIGNED = ("max_contact_points",)
-    BOUNDS = {"max_contact_points": (-1, 100_000)}
+    ZERO_OK = ("warp_contacts",)
+    BOUNDS = {"max_contact_points": (-1, 100_000), "warp_contacts": (0, 100_000)}
+
+    def cross_check(self, prefix: str = "") -> None:
+        if self.impl == "warp" and self.patched:
+            raise ConfigError(f"{prefix}impl: 'warp' runs MuJoCo Warp's own solver; linesearch_loop and cone_hessian "
+                              "patch MJX's JAX solver (leave them 'scan' and 'dense')")  # fmt: skip
+        if self.impl == "jax" and self.warp_contacts:
+            raise ConfigError(f"{prefix}warp_contacts: sizes MuJoCo Warp's buffers; set impl: 'warp' or leave it 0")
 
     @property
     def patched(self) -> bool:
@@ -71,6 +89,8 @@ PHYSICS_PRESETS: dict[str, PhysicsConfig] = {
     # (1234 constraint rows) are mostly gripper-versus-bin-wall pairs far apart (issue 42)
     "fast-capped": PhysicsConfig(iterations=10, ls_iterations=8, linesearch_loop="while", cone_hessian="blocks",
                                  floor_contacts=False, max_contact_points=32),  # fmt: skip
+    # MuJoCo Warp's kernels behind MJX's API, robosuite's solver options, the floor's pairs dropped
+    "warp": PhysicsConfig(impl="warp", floor_contacts=False),
 }
 
 
@@ -86,7 +106,7 @@ def as_physics(physics: PhysicsConfig | str | None) -> PhysicsConfig:
     if physics is None:
         return REFERENCE
     if isinstance(physics, str):
-        return physics_preset(physics)
+        physics = physics_preset(physics)
     if not isinstance(physics, PhysicsConfig):
         raise ConfigError(f"physics: expected a PhysicsConfig or a preset name, got {physics!r}")
     check(physics, "physics.")
@@ -94,7 +114,18 @@ def as_physics(physics: PhysicsConfig | str | None) -> PhysicsConfig:
         from poir_mjx.envs import solver_patch
 
         solver_patch.check_version()
+    if physics.impl == "warp":
+        require_warp()
     return physics
+
+
+def require_warp(field: str = "physics.impl") -> None:
+    """A ConfigError naming `field` unless MJX can run MuJoCo Warp here (mjx 3.17 or newer, warp-lang installed)."""
+    from poir_mjx.optional import warp_installed
+
+    if not warp_installed():
+        raise ConfigError(f"{field}: 'warp' needs mujoco-mjx 3.17 or newer with warp-lang 1.18.0 "
+                          "(make venv STACK=warp)")  # fmt: skip
 
 
 def edit_spec(spec: mujoco.MjSpec, physics: PhysicsConfig) -> mujoco.MjSpec:

@@ -7,8 +7,8 @@ import dataclasses
 from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS
 
 # Priority order (issue 42): physics, the evaluator end to end, one paper-size cell, the expert; then the small
-# sweep and the planner (measured on the first lease).
-STAGES = ("env", "e2e", "cell", "expert", "sweep", "planner")
+# sweep and the planner (measured on the first lease); MuJoCo Warp last, only where warp-lang was carried in parts.
+STAGES = ("env", "e2e", "cell", "expert", "sweep", "planner", "warp")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -71,7 +71,8 @@ GPU = Sizes(
     cell_task="pick_place_can", cell_preset="paper", cell_methods=("EBC", "POIR-random", "POIR-DRIL"),
     cell_sigma_init=0.1, cell_episodes=64,
     expert_tasks=("pick_place_can", "nut_assembly_square"), expert_episodes=100, expert_steps=0,
-    deadlines=(("env", 150), ("e2e", 150), ("cell", 240), ("expert", 120), ("sweep", 60), ("planner", 60)),
+    deadlines=(("env", 150), ("e2e", 150), ("cell", 240), ("expert", 120), ("sweep", 60), ("planner", 60),
+               ("warp", 150)),
     budget_s=480,
 )  # fmt: skip
 # Deadlines from the first H200 run (results/gpu/notes.md): each MJX Lift program compiled in 28-39 s, so env

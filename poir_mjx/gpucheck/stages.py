@@ -1,4 +1,4 @@
-"""The six stages of a GPU check, in priority order; each adds rows to its Record as it measures them.
+"""The seven stages of a GPU check, in priority order; each adds rows to its Record as it measures them.
 
 1. env: Lift MJX control steps/s per batch size, today's physics and the fast preset side by side (the reset
    compiled once per preset, at the largest batch).
@@ -10,6 +10,7 @@
 5. sweep: a small Lift sweep (EBC, POIR-DRIL) whose batch is the e2e stage's, reusing its checkpoints.
 6. planner: the POIR planner (DRIL, L2, MOREL) per batch: Hz per episode, FLOPs per call (XLA's cost
    analysis) and the achieved FLOP/s against the device's float32 peak where known.
+7. warp: Lift's control step under MuJoCo Warp (physics "warp"), only where warp-lang was carried (docs/gpu.md).
 """
 
 from __future__ import annotations
@@ -49,32 +50,53 @@ def peak_flops() -> float | None:
 
 def env_stage(sizes: Sizes, rec: Record, where: Where) -> None:
     """Lift's batched control step under today's physics and the cheaper preset side by side, in one process."""
+    for physics in sizes.env_physics:
+        _time_lift(sizes, rec, physics)
+
+
+def warp_stage(sizes: Sizes, rec: Record, where: Where) -> None:
+    """Lift's batched control step under MuJoCo Warp (physics "warp"), last: only where warp-lang was carried in
+    parts (make warp-parts here, make warp-install there: docs/gpu.md)."""
+    from poir_mjx.optional import warp_installed
+
+    if not warp_installed():
+        rec.add({"task": "lift", "physics": "warp", "not_run": "warp-lang is not installed (make warp-install)"})
+        return
+    _time_lift(sizes, rec, "warp")
+
+
+def _time_lift(sizes: Sizes, rec: Record, physics: str) -> None:
     from poir_mjx.envs.env import batched, make_env, make_params
 
-    env = make_env("lift")
-    big = max(sizes.env_batches)
-    for physics in sizes.env_physics:
-        reset, _, step = batched("lift", physics=physics)
+    env = make_env("lift", physics=physics)
+    reset, _, step = batched("lift", physics=physics)
+    # One reset at the largest size, sliced, except under Warp: its contact buffers are sized by the batch
+    sliced = not env.on_warp
+
+    def start(b):
         t0 = time.perf_counter()
-        state = jax.block_until_ready(reset(jax.random.split(jax.random.PRNGKey(0), big),
-                                            make_params(np.full(big, 0.02))))  # fmt: skip
-        reset_s = time.perf_counter() - t0
-        for b in sizes.env_batches:
-            st = jax.tree_util.tree_map(lambda x: x[:b], state)
-            act = jax.random.uniform(jax.random.PRNGKey(b), (sizes.env_steps + 1, b, env.action_size), minval=-1,
-                                     maxval=1)  # fmt: skip
-            t0 = time.perf_counter()
-            st = jax.block_until_ready(step(st, act[0]))
-            compile_s = time.perf_counter() - t0
-            t0 = time.perf_counter()
-            for k in range(1, sizes.env_steps + 1):
-                st = step(st, act[k])
-            jax.block_until_ready(st)
-            dt = time.perf_counter() - t0
-            rec.add({"task": "lift", "physics": physics, "batch": b, "steps": sizes.env_steps,
-                     "control_steps_per_s": b * sizes.env_steps / dt, "ms_per_batched_step": 1e3 * dt / sizes.env_steps,
-                     "compile_and_first_step_s": compile_s, "reset_compile_and_run_s_at_batch_" + str(big): reset_s,
-                     "diverged": int(np.asarray(st.info["diverged"]).sum())})  # fmt: skip
+        state = jax.block_until_ready(reset(jax.random.split(jax.random.PRNGKey(0), b), make_params(np.full(b, 0.02))))
+        return state, time.perf_counter() - t0
+
+    big = max(sizes.env_batches)
+    state, reset_s = start(big) if sliced else (None, 0.0)
+    for b in sizes.env_batches:
+        st, reset_s = (jax.tree_util.tree_map(lambda x: x[:b], state), reset_s) if sliced else start(b)
+        act = jax.random.uniform(jax.random.PRNGKey(b), (sizes.env_steps + 1, b, env.action_size), minval=-1,
+                                 maxval=1)  # fmt: skip
+        t0 = time.perf_counter()
+        st = jax.block_until_ready(step(st, act[0]))
+        compile_s = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        for k in range(1, sizes.env_steps + 1):
+            st = step(st, act[k])
+        jax.block_until_ready(st)
+        dt = time.perf_counter() - t0
+        rec.add({"task": "lift", "physics": physics, "batch": b, "steps": sizes.env_steps,
+                 "control_steps_per_s": b * sizes.env_steps / dt, "ms_per_batched_step": 1e3 * dt / sizes.env_steps,
+                 "compile_and_first_step_s": compile_s,
+                 f"reset_compile_and_run_s_at_batch_{big if sliced else b}": reset_s,
+                 "diverged": int(np.asarray(st.info["diverged"]).sum())})  # fmt: skip
 
 
 def _flops(compiled) -> float | None:
@@ -186,4 +208,4 @@ def expert_stage(sizes: Sizes, rec: Record, where: Where) -> None:
 
 
 STAGE_FUNCTIONS = {"env": env_stage, "e2e": e2e_stage, "cell": cell_stage, "expert": expert_stage,
-                   "sweep": sweep_stage, "planner": planner_stage}  # fmt: skip
+                   "sweep": sweep_stage, "planner": planner_stage, "warp": warp_stage}  # fmt: skip

@@ -12,7 +12,7 @@ from typing import Any, Callable
 
 import jax
 
-from poir_mjx.rollout.protocol import Env
+from poir_mjx.rollout.protocol import Env, for_batch
 
 # act(params, carry, state, key) -> (action, carry)
 ActFn = Callable[[Any, Any, Any, jax.Array], tuple[jax.Array, Any]]
@@ -56,10 +56,16 @@ def outcome(state) -> dict[str, jax.Array]:
 
 
 def batched_episodes(env: Env, policy: Policy, steps: int, record: RecordFn | None = None):
-    """jit(vmap(episode)): (params, keys [B], env params [B]) -> (outcome dict [B], records [B, T, ...])."""
+    """jit(vmap(episode)): (params, keys [B], env params [B]) -> (outcome dict [B], records [B, T, ...]).
+    The environment is sized for the batch it is traced with (``protocol.for_batch``)."""
 
-    def episode(params, key, env_params):
-        state, records = run_episode(env, policy, params, key, env_params, steps, record)
-        return outcome(state), records
+    def batch(params, keys, env_params):
+        sized = for_batch(env, keys.shape[0])
 
-    return jax.jit(jax.vmap(episode, in_axes=(None, 0, 0)))
+        def episode(params, key, env_params):
+            state, records = run_episode(sized, policy, params, key, env_params, steps, record)
+            return outcome(state), records
+
+        return jax.vmap(episode, in_axes=(None, 0, 0))(params, keys, env_params)
+
+    return jax.jit(batch)

@@ -26,3 +26,11 @@ class Env(Protocol):
     def step(self, state: Any, action: jax.Array) -> Any: ...
 
     def obs_vector(self, state: Any) -> jax.Array: ...
+
+
+def for_batch(env: Any, episodes: int) -> Any:
+    """`env` for a traced batch of `episodes` (call it inside the jitted function, from an input's shape, before
+    vmapping ``reset``): an environment whose buffers are shared by a batch (MuJoCo Warp's contacts) sizes them
+    by it through its ``sized_for``; any other environment is returned as it is."""
+    sized = getattr(env, "sized_for", None)
+    return env if sized is None else sized(episodes)

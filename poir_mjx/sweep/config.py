@@ -12,7 +12,7 @@ from typing import Literal
 
 from poir_mjx.core.config import PRESETS, ConfigError, PlannerConfig, POIRConfig, apply_overrides, preset, to_dict
 from poir_mjx.envs.layout import OBSERVATIONS
-from poir_mjx.envs.physics import PhysicsPresetName
+from poir_mjx.envs.physics import PhysicsPresetName, physics_preset, require_warp
 from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS, TASKS
 from poir_mjx.eval.methods import METHODS, get_method
 from poir_mjx.sweep.run_folder import RETIRED, run_name_problem, upgrade_recorded
@@ -89,8 +89,9 @@ class SweepConfig:
     physics: PhysicsPresetName = "reference"
     """MJX physics preset (poir_mjx/envs/physics.py): "reference" (robosuite's solver options, MJX as released),
     "fast" or "fast-capped" (results/bench/physics-cpu.md) for every MJX episode of the run: evaluation, online
-    collection and baselines' training. MJX demos are recorded with the reference physics; robosuite episodes are
-    robosuite's own."""
+    collection and baselines' training; "warp": MuJoCo Warp's kernels (``make venv STACK=warp``; evaluation and
+    online collection, not the baselines or the oracle controls). MJX demos are recorded with the reference physics;
+    robosuite episodes are robosuite's own."""
 
     ZERO_OK = ("seeds", "workers")
     BOUNDS = {"seeds": SEED, "episodes": (1, 10**6), "max_steps": (1, 10**6), "num_demos": (1, 10**6),
@@ -115,6 +116,13 @@ class SweepConfig:
                 get_method(m).is_baseline or get_method(m).online for m in self.methods):  # fmt: skip
             raise ConfigError(f"physics: {self.physics!r} sets MJX's physics, and nothing in this run steps MJX "
                               "(field 'simulator' is 'robosuite' and no method trains online)")  # fmt: skip
+        if physics_preset(self.physics).impl == "warp":
+            require_warp("physics")
+            odd = [m for m in self.methods if get_method(m).is_baseline or METHODS[m].oracle]
+            if odd:
+                raise ConfigError(f"physics: 'warp' shares contact buffers across a batch's episodes, which "
+                                  f"{', '.join(odd)} (environments reset one by one, or rolled out inside an episode) "
+                                  "do not support; use another physics preset or leave them out of 'methods'")  # fmt: skip
         base_config(self)  # the overrides, named "overrides: <dotted field>: ..."
         for name, ov in self.baseline_overrides.items():
             if name not in self.methods or not get_method(name).is_baseline:

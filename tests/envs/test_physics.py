@@ -51,7 +51,25 @@ def test_bad_physics_is_one_error_naming_the_field():
         make_env("lift", physics=PhysicsConfig(max_contact_points=0))
     with pytest.raises(ConfigError, match=r"physics.max_contact_points: must be in \[-1"):
         make_env("lift", physics=PhysicsConfig(max_contact_points=-2))
-    assert set(PHYSICS_PRESETS) == {"reference", "fast", "fast-capped"}
+    assert set(PHYSICS_PRESETS) == {"reference", "fast", "fast-capped", "warp"}
+
+
+def test_warp_settings_are_checked_before_anything_is_built():
+    with pytest.raises(ConfigError, match="physics.impl: 'warp' runs MuJoCo Warp's own solver"):
+        make_env("lift", physics=PhysicsConfig(impl="warp", linesearch_loop="while"))
+    with pytest.raises(ConfigError, match="physics.warp_contacts: sizes MuJoCo Warp's buffers"):
+        make_env("lift", physics=PhysicsConfig(warp_contacts=16))
+    with pytest.raises(ConfigError, match="physics.warp_contacts: must be >= 0"):
+        make_env("lift", physics=PhysicsConfig(impl="warp", warp_contacts=-1))
+
+
+def test_warp_where_it_is_missing_is_one_error_naming_the_field():
+    from poir_mjx.optional import warp_installed
+
+    if warp_installed():
+        pytest.skip("MuJoCo Warp is installed here (tests/envs/test_warp.py runs it)")
+    with pytest.raises(ConfigError, match=r"physics.impl: 'warp' needs mujoco-mjx 3.17 or newer with warp-lang"):
+        make_env("lift", physics="warp")
 
 
 @pytest.mark.parametrize("task, uncapped, capped", [("lift", 56, 56), ("pick_place_can", 320, 64),

@@ -183,3 +183,22 @@ def test_physics_preset_keys_the_cells_and_reaches_every_mjx_episode(tmp_path, m
     with pytest.raises(ZeroDivisionError):
         episodes.run_episodes("mjx", "lift", get_method("EBC"), None, None, None, None, None, 1, physics="fast")
     assert seen == ["fast"]
+
+
+def test_warp_physics_in_a_sweep_is_refused_where_it_cannot_run(tmp_path):
+    """physics "warp": one line naming the field where MuJoCo Warp is missing; where it is installed, refused for the
+    methods whose environments its batch-shared contact buffers do not fit (baselines, the oracle controls)."""
+    from poir_mjx.optional import warp_installed
+
+    f = tmp_path / "c.json"
+    f.write_text(json.dumps({"name": "x", "tasks": ["lift"], "methods": ["EBC", "DAC", "POIR-L2 oracle"],
+                             "simulator": "mjx", "physics": "warp"}))  # fmt: skip
+    if not warp_installed():
+        with pytest.raises(ConfigError, match=r"c\.json: field 'physics': 'warp' needs mujoco-mjx 3.17 or newer"):
+            load_sweep_config(f)
+        return
+    with pytest.raises(ConfigError, match=r"c\.json: .*'warp' shares contact buffers .* DAC, POIR-L2 oracle"):
+        load_sweep_config(f)
+    f.write_text(json.dumps({"name": "x", "tasks": ["lift"], "methods": ["EBC"], "simulator": "mjx",
+                             "physics": "warp"}))  # fmt: skip
+    assert load_sweep_config(f).physics == "warp"
