@@ -239,10 +239,14 @@ class DemosSuccess:
         return "_".join(self.simulator) + ("" if self.physics == "reference" else f"_{self.physics}")
 
 
+# The GPU check's stages (poir_mjx/gpucheck/sizes.py STAGES, in its priority order; a test keeps the two equal)
+GpuStage = Literal["env", "e2e", "cell", "expert", "sweep", "planner", "warp"]
+
+
 @dataclasses.dataclass(frozen=True)
 class GpuCheck:
-    """The prepared GPU run (make gpu-check): env, end-to-end, a paper-size cell, expert, sweep and planner stages in
-    priority order, each under a deadline, each writing <out>/<stage>.json after every row; complete stages are
+    """The prepared GPU run (make gpu-check): env, end-to-end, a paper-size cell, expert, sweep, planner and (where
+    warp-lang was carried) MuJoCo Warp stages in priority order, each under a deadline, each writing <out>/<stage>.json after every row; complete stages are
     skipped."""
 
     out: Path = Path("results/gpu")
@@ -251,10 +255,9 @@ class GpuCheck:
     """The same stages at tiny sizes on the CPU, in this process (make test-current runs it)."""
     scratch: Path = Path("/tmp/poir-mjx-gpu-check")
     """Demos, checkpoints and the sweep's run folder (not results)."""
-    stages: tuple[Literal["env", "e2e", "cell", "expert", "sweep", "planner"], ...] = (
-        "env", "e2e", "cell", "expert", "sweep", "planner")  # fmt: skip
+    stages: tuple[GpuStage, ...] = ("env", "e2e", "cell", "expert", "sweep", "planner", "warp")
     """Stages to run (always in priority order)."""
-    only: Optional[Literal["env", "e2e", "cell", "expert", "sweep", "planner"]] = None
+    only: Optional[GpuStage] = None
     """Run this one stage here and now, no deadline (what the runner's child processes do)."""
     demos: Path = Path(".gpu-demos")
     """Demo files recorded on a CPU and carried (make gpu-carry: <task>.hdf5, compact copies); a task without one

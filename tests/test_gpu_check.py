@@ -116,3 +116,14 @@ def test_a_stage_record_counts_the_programs_it_compiles(tmp_path):
     rec.add({"row": 1})
     c = json.loads((tmp_path / "env.json").read_text())["compilations"]
     assert c["programs"] >= 1 and c["backend_compile_s"] > 0 and c["trace_s"] > 0
+
+
+def test_the_command_lines_stages_are_the_runners():
+    """The command line's stage names and default are the runner's STAGES, in order (a stage added to one only would
+    never run: the warp stage once did not)."""
+    import typing
+
+    from poir_mjx.options import GpuCheck, GpuStage
+
+    assert typing.get_args(GpuStage) == STAGES == GpuCheck().stages
+
