@@ -26,7 +26,7 @@ from poir_mjx.compat import x64_enabled
 from poir_mjx.envs import osc, warp
 from poir_mjx.envs import observation
 from poir_mjx.envs.layout import ACTION_SIZE, OBS_KEYS, obs_sizes, observation_keys
-from poir_mjx.envs.model import ModelFileError, load_model, load_variants, model_indices
+from poir_mjx.envs.model import ModelFileError, load_model, load_variants, model_indices, put_model
 from poir_mjx.envs.observation import flatten_obs
 from poir_mjx.envs.physics import REFERENCE, PhysicsConfig, as_physics, solver_scope
 from poir_mjx.envs.placement import sample_object_pose
@@ -290,7 +290,7 @@ def _observed(env: TaskEnv, observation: str) -> TaskEnv:
 def _make_env(task: str, envs_dir: str | None, x64: bool, physics: PhysicsConfig = REFERENCE) -> TaskEnv:
     check_task(task)
     mj_model, meta = load_model(task, envs_dir, physics)
-    model = warp.put_model(mj_model) if physics.impl == "warp" else mjx.put_model(mj_model)
+    model = put_model(mj_model, physics)
     variants = load_variants(task, envs_dir, mj_model, model, meta, physics)
     return TaskEnv(task=task, mj_model=mj_model, model=model, meta=meta, variants=variants, physics=physics)
 

@@ -42,6 +42,11 @@ def load_model(task: str, envs_dir: str | Path | None = None,
     return model, meta
 
 
+def put_model(mj_model: mujoco.MjModel, physics: PhysicsConfig = REFERENCE) -> mjx.Model:
+    """The MJX model of `mj_model` in the implementation `physics` asks for (MJX's JAX pipeline or MuJoCo Warp)."""
+    return mjx.put_model(mj_model, impl="warp") if physics.impl == "warp" else mjx.put_model(mj_model)
+
+
 def load_variants(task: str, envs_dir: str | Path | None, mj_model: mujoco.MjModel, model: mjx.Model,
                   meta: dict, physics: PhysicsConfig = REFERENCE) -> ModelVariants | None:  # fmt: skip
     """The per-episode object-size variants (variant 0 is `model`), or None for a task without ``object_size``."""
@@ -52,8 +57,7 @@ def load_variants(task: str, envs_dir: str | Path | None, mj_model: mujoco.MjMod
     sizes = variant_sizes(meta, mj_model.geom_size[gid])
     xml, meshdir = files.xml.read_text(), str(files.xml.parent.resolve()) + "/"
     edit = lambda spec: edit_spec(spec, physics)  # noqa: E731
-    put = (lambda mj: mjx.put_model(mj, impl="warp")) if physics.impl == "warp" else mjx.put_model  # noqa: E731
-    models = [model] + [put(compile_variant(xml, meshdir, meta, sz, edit)) for sz in sizes[1:]]
+    models = [model] + [put_model(compile_variant(xml, meshdir, meta, sz, edit), physics) for sz in sizes[1:]]
     return ModelVariants.build(models, sizes)
 
 

@@ -21,10 +21,6 @@ import numpy as np
 from mujoco import mjx
 
 
-def put_model(mj_model: mujoco.MjModel) -> mjx.Model:
-    return mjx.put_model(mj_model, impl="warp")
-
-
 @functools.lru_cache(maxsize=None)
 def jax_sizes(mj_model: mujoco.MjModel) -> tuple[int, int]:
     """(constraint rows, contacts) of one world as MJX's JAX pipeline allocates them: every candidate pair's."""
