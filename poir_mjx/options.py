@@ -83,7 +83,8 @@ class Eval:
     planner: PlannerFlags = PlannerFlags()  # type: ignore[valid-type]
     """Planner settings replacing the checkpoint's (POIR methods only)."""
     physics: PhysicsPresetName = "reference"
-    """MJX physics preset (poir_mjx/envs/physics.py: reference, fast, fast-capped); robosuite is robosuite's own."""
+    """MJX physics preset (poir_mjx/envs/physics.py: reference, same-maths, fast, fast-capped, warp); robosuite is
+    robosuite's own."""
 
     def outputs(self):
         return [] if self.out is None else [(self.out, "file", "--out")]
@@ -226,8 +227,8 @@ class DemosSuccess:
     """Run the MJX physics in float64 (jax_enable_x64). NutAssemblySquare's grasp needs it in MJX: the expert succeeds
     in 20 of 32 float32 episodes, 32 of 32 in float64 (docs/expert-data.md)."""
     physics: PhysicsPresetName = "reference"
-    """MJX physics preset (poir_mjx/envs/physics.py: reference, fast, fast-capped); other than reference, the
-    tables are success_<simulators>_<physics>.{md,json}."""
+    """MJX physics preset (poir_mjx/envs/physics.py: reference, same-maths, fast, fast-capped, warp); other than
+    reference, the tables are success_<simulators>_<physics>.{md,json}."""
 
     def outputs(self):
         tag = self.tag

@@ -18,7 +18,7 @@ from poir_mjx.typed_config import ConfigError, check
 if TYPE_CHECKING:  # no mujoco import here: the option dataclasses (poir_mjx/options.py) name the presets
     import mujoco
 
-PhysicsPresetName = Literal["reference", "fast", "fast-capped", "warp"]
+PhysicsPresetName = Literal["reference", "same-maths", "fast", "fast-capped", "warp"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -83,6 +83,9 @@ REFERENCE = PhysicsConfig()
 # default: measured against the reference and robosuite in results/bench/physics-cpu.md.
 PHYSICS_PRESETS: dict[str, PhysicsConfig] = {
     "reference": REFERENCE,
+    # only the cuts that keep the reference's maths (the solver patch, the floor's pairs, which never touch):
+    # robosuite's iteration budget; "fast" is this with 10 / 8 iterations (which of the two costs its episodes)
+    "same-maths": PhysicsConfig(linesearch_loop="while", cone_hessian="blocks", floor_contacts=False),
     "fast": PhysicsConfig(iterations=10, ls_iterations=8, linesearch_loop="while", cone_hessian="blocks",
                           floor_contacts=False),  # fmt: skip
     # fast, and at most 32 contacts per contact-dimension group (the deepest): PickPlaceCan's 344 candidate contacts

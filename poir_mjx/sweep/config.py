@@ -88,10 +88,10 @@ class SweepConfig:
     reads the full observation."""
     physics: PhysicsPresetName = "reference"
     """MJX physics preset (poir_mjx/envs/physics.py): "reference" (robosuite's solver options, MJX as released),
-    "fast" or "fast-capped" (results/bench/physics-cpu.md) for every MJX episode of the run: evaluation, online
-    collection and baselines' training; "warp": MuJoCo Warp's kernels (``make venv STACK=warp``; evaluation and
-    online collection, not the baselines or the oracle controls). MJX demos are recorded with the reference physics;
-    robosuite episodes are robosuite's own."""
+    "same-maths" (the solver patch and no floor pairs only), "fast" or "fast-capped" (results/bench/physics-cpu.md)
+    for every MJX episode of the run: evaluation, online collection and baselines' training; "warp": MuJoCo Warp's
+    kernels (``make venv STACK=warp``; evaluation and online collection, not the baselines or the oracle controls).
+    MJX demos are recorded with the reference physics; robosuite episodes are robosuite's own."""
 
     ZERO_OK = ("seeds", "workers")
     BOUNDS = {"seeds": SEED, "episodes": (1, 10**6), "max_steps": (1, 10**6), "num_demos": (1, 10**6),

@@ -31,6 +31,8 @@ def test_fast_preset_reaches_the_mjx_model_and_every_size_variant():
     for m in (env.model, env.variants.model(0), env.variants.model(5)):
         assert (m.opt.iterations, m.opt.ls_iterations) == (10, 8)
     assert make_env("lift").model.opt.iterations == 100  # the reference is untouched
+    # same-maths is fast at the reference's iteration budget: the two differ by that budget alone
+    assert physics_preset("same-maths") == dataclasses.replace(fast, iterations=100, ls_iterations=50)
 
 
 def test_each_field_reaches_the_model_on_its_own():
@@ -51,7 +53,7 @@ def test_bad_physics_is_one_error_naming_the_field():
         make_env("lift", physics=PhysicsConfig(max_contact_points=0))
     with pytest.raises(ConfigError, match=r"physics.max_contact_points: must be in \[-1"):
         make_env("lift", physics=PhysicsConfig(max_contact_points=-2))
-    assert set(PHYSICS_PRESETS) == {"reference", "fast", "fast-capped", "warp"}
+    assert set(PHYSICS_PRESETS) == {"reference", "same-maths", "fast", "fast-capped", "warp"}
 
 
 def test_warp_settings_are_checked_before_anything_is_built():
