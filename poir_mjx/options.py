@@ -98,6 +98,10 @@ class Compare:
     """Run folders (results/<name>)."""
     out: Optional[Path] = None
     """Also write the table to this file (markdown)."""
+    versus: Optional[str] = None
+    """RUN:METHOD, e.g. results/cpu-prior:EBC: a second table, every other row's successes minus that row's, matched
+    cell by cell (task, sigma_init, training seed), with Fisher / Cochran-Mantel-Haenszel p; the run is added to the
+    runs compared if it is not among them."""
 
     def outputs(self):
         return [] if self.out is None else [(self.out, "file", "--out")]

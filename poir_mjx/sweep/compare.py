@@ -5,11 +5,18 @@ rate and Wilson interval per (task, sigma_init, sigma_action) cell, read from th
 records made with the run's recorded config (each cell's config hash checked: stale cells are left out and
 counted). Runs with the same grid, episodes and seeds
 share their episode keys, so their rows are paired comparisons.
+
+``--versus RUN:METHOD`` adds a second table: every other row's successes minus that reference row's, cell by cell
+(matched by task, sigma_init and training seed; by sigma_action too where the reference has several), with the
+two-sided Fisher exact p of one seed's pair, or the Cochran-Mantel-Haenszel p over the seeds (each seed a stratum),
+and an "all cells" column over every stratum. A difference drawn on other starting states than the reference's (its
+episode keys differ: another seed, episode count or grid position) is marked, since it is not a paired comparison.
 """
 
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 from poir_mjx.atomic import atomic_write_text
@@ -61,10 +68,27 @@ def _read_run(run: Path) -> tuple[dict, list[dict]]:
     return raw, recs
 
 
-def compare(runs: list[Path]) -> str:
-    rows, cols = [], []
+def _key_slot(cfg: dict, rec: dict) -> tuple:
+    """What a cell's episode keys are (rollout.evaluator.episode_keys: one split of the seed's key, the cells in the
+    run's (sigma_init, sigma_action) grid order; jax's partitionable threefry makes key i independent of the split's
+    size): the seed, the index of the cell's first episode and the episode count."""
+    from poir_mjx.sweep.config import SweepConfig
+
+    sis, sas = (cfg.get(f, SweepConfig.__dataclass_fields__[f].default) for f in ("sigma_init", "sigma_action"))
+    grid = [(si, sa) for si in sis for sa in sas]
+    pos = next((j for j, (si, sa) in enumerate(grid) if math.isclose(si, rec["sigma_init"]) and
+                math.isclose(sa, rec["sigma_action"])), None)  # fmt: skip
+    return rec.get("seed", 0), None if pos is None else pos * rec["episodes"], rec["episodes"]
+
+
+def compare(runs: list[Path], versus: tuple[Path, str] | None = None) -> str:
+    rows, cols, strata = [], [], {}
     for run in runs:
         cfg, recs = _read_run(run)
+        for rec in recs:
+            strata.setdefault((run.name, rec["method"]), []).append(
+                ((rec["task"], rec["sigma_init"], rec["sigma_action"], rec.get("seed", 0)), rec["successes"],
+                 rec["episodes"], _key_slot(cfg, rec)))  # fmt: skip
         by_method: dict[str, dict] = {}
         for rec in recs:
             col = (rec["task"], rec["sigma_init"], rec["sigma_action"])
@@ -90,11 +114,74 @@ def compare(runs: list[Path]) -> str:
             lo, hi = wilson_interval(k, n)
             out.append(f"{k}/{n} = {k / n:.2f} [{lo:.2f}, {hi:.2f}]")
         lines.append(f"| {name} | {overrides} | {method} | " + " | ".join(out) + " |")
+    text = "\n".join(lines) + "\n"
+    if versus is not None:
+        text += _versus(versus, rows, cols, strata)
+    return text
+
+
+def _versus(versus: tuple[Path, str], rows: list, cols: list, strata: dict) -> str:
+    from poir_mjx.eval.episodes import agreement_p_value
+    from poir_mjx.eval.stats import pooled_p_value
+
+    ref_run, ref_method = versus
+    ref = strata.get((ref_run.name, ref_method))
+    if ref is None:
+        have = sorted(f"{r}:{m}" for r, m in strata)
+        raise ConfigError(f"--versus: no row {ref_run.name}:{ref_method} among the runs compared (rows: {', '.join(have)})")
+
+    def match(task, si, sa, seed):
+        same = [c for c in ref if c[0][0] == task and math.isclose(c[0][1], si) and c[0][3] == seed]
+        exact = [c for c in same if math.isclose(c[0][2], sa)]
+        return exact[0] if exact else (same[0] if len(same) == 1 else None)
+
+    others = [(name, method) for name, _, method, _ in rows if (name, method) != (ref_run.name, ref_method)]
+    cols = [c for c in cols if any((c[0], c[1], c[2]) == key[:3] for row in others for key, *_ in strata[row])]
+    unpaired = False
+    head = f"| run | method | {' | '.join(f'{t} σ_init {si:g}' + (f' σ_act {sa:g}' if sa else '') for t, si, sa in cols)} | all cells |"
+    lines = ["", f"Versus {ref_run.name}:{ref_method}: difference in successes, two-sided Fisher exact p (one seed) or "
+             "Cochran-Mantel-Haenszel p over the training seeds; all cells: over every (cell, seed) both have.", "",
+             head, "|---|---|" + "---|" * (len(cols) + 1)]  # fmt: skip
+    for name, method in others:
+        out, every = [], []
+        for col in cols:
+            pairs, mark = [], ""
+            for (task, si, sa, seed), k, n, slot in strata[(name, method)]:
+                r = match(task, si, sa, seed) if (task, si, sa) == col else None
+                if r is not None:
+                    pairs.append((k, n, r[1], r[2]))
+                    mark = mark or ("" if slot == r[3] else " ‡")
+            if not pairs:
+                out.append("-")
+                continue
+            unpaired |= bool(mark)
+            every += pairs
+            d = sum(k1 - k2 for k1, _, k2, _ in pairs)
+            p = agreement_p_value(*pairs[0]) if len(pairs) == 1 else pooled_p_value(pairs)
+            out.append(f"{d:+d} (p {p:.2g}){mark}")
+        total = sum(k1 - k2 for k1, _, k2, _ in every)
+        out.append(f"{total:+d} (p {pooled_p_value(every):.2g})" if len(every) > 1 else "-")
+        lines.append(f"| {name} | {method} | " + " | ".join(out) + " |")
+    if unpaired:
+        lines += ["", "‡ other starting states than the reference's (other episode keys): not a paired comparison."]
     return "\n".join(lines) + "\n"
 
 
-def main(runs: list[Path], out: Path | None) -> int:
-    text = compare(runs)
+def parse_versus(text: str | None) -> tuple[Path, str] | None:
+    """``RUN:METHOD`` (the method after the last colon) as (run folder, method); None for None."""
+    if text is None:
+        return None
+    run, sep, method = text.rpartition(":")
+    if not sep or not run or not method:
+        raise ConfigError(f"--versus: {text!r} is not RUN:METHOD (e.g. results/cpu-prior:EBC)")
+    return Path(run), method
+
+
+def main(runs: list[Path], out: Path | None, versus: str | None = None) -> int:
+    ref = parse_versus(versus)
+    if ref is not None and ref[0].resolve() not in [r.resolve() for r in runs]:
+        runs = [*runs, ref[0]]
+    text = compare(runs, ref)
     print(text, end="")
     if out is not None:
         atomic_write_text(out, text)

@@ -55,3 +55,48 @@ def test_a_folder_without_cells_is_one_line_and_exit_2(tmp_path, capsys):
     (tmp_path / "config.json").write_text('{"name": "x"}')
     with pytest.raises(Exception, match="no cell records"):
         compare([tmp_path])
+
+
+def _seeded(root, name, cells, sigma_init=(0.02, 0.3), sigma_action=(0.0,), episodes=10):
+    """A run folder with per-seed cells (method, si, sa, seed, k) of `episodes` episodes each."""
+    run = root / name
+    (run / "cells").mkdir(parents=True)
+    cfg = {"name": name, "sigma_init": list(sigma_init), "sigma_action": list(sigma_action), "seeds": [0, 1],
+           "episodes": episodes}  # fmt: skip
+    (run / "config.json").write_text(json.dumps(cfg))
+    sweep = SweepConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in cfg.items()})
+    for j, (method, si, sa, seed, k) in enumerate(cells):
+        rec = {"task": "lift", "method": method, "sigma_init": si, "sigma_action": sa, "seed": seed, "successes": k,
+               "episodes": episodes, "config_hash": cell_hash(sweep, "lift", method, "abc"), "data": {"sha256": "abc"}}
+        (run / "cells" / f"{j}.json").write_text(json.dumps(rec))
+    return run
+
+
+def test_versus_pairs_cells_by_seed_and_pools_the_seeds(tmp_path):
+    from poir_mjx.eval.episodes import agreement_p_value
+    from poir_mjx.eval.stats import pooled_p_value
+
+    ref = _seeded(tmp_path, "noise", [("EBC", 0.02, 0.05, 0, 5), ("EBC", 0.02, 0.05, 1, 6), ("EBC", 0.3, 0.05, 0, 1)],
+                  sigma_action=(0.05,))  # fmt: skip
+    base = _seeded(tmp_path, "base", [("POIR-DRIL", 0.02, 0.0, 0, 9), ("POIR-DRIL", 0.02, 0.0, 1, 8),
+                                      ("POIR-DRIL", 0.3, 0.0, 0, 4), ("POIR-DRIL", 0.3, 0.0, 1, 3)])  # fmt: skip
+    text = compare([base, ref], versus=(ref, "EBC"))
+    row = next(line for line in text.split("Versus noise:EBC")[1].splitlines() if line.startswith("| base | POIR-DRIL"))
+    cells = [c.strip() for c in row.strip("|").split("|")][2:]
+    # sigma_init 0.02: both seeds matched (other sigma_action, the reference's only one), pooled over the seeds
+    assert cells[0] == f"+6 (p {pooled_p_value([(9, 10, 5, 10), (8, 10, 6, 10)]):.2g})"
+    # sigma_init 0.3: the reference has seed 0 only; one pair is a Fisher test
+    assert cells[1] == f"+3 (p {agreement_p_value(4, 10, 1, 10):.2g})"
+    assert cells[2] == f"+9 (p {pooled_p_value([(9, 10, 5, 10), (8, 10, 6, 10), (4, 10, 1, 10)]):.2g})"
+    assert "‡" not in text  # same seeds, grid positions and episode counts: the same starting states
+
+
+def test_versus_marks_other_starting_states_and_names_a_missing_row(tmp_path):
+    ref = _seeded(tmp_path, "ref", [("EBC", 0.3, 0.0, 0, 2)])
+    moved = _seeded(tmp_path, "moved", [("EBC", 0.3, 0.0, 0, 7)], sigma_init=(0.1, 0.2, 0.3))  # another grid position
+    text = compare([moved, ref], versus=(ref, "EBC"))
+    assert "+5 (p " in text and "‡" in text and "not a paired comparison" in text
+    with pytest.raises(Exception, match=r"--versus: no row ref:POIR-DRIL .*rows: moved:EBC, ref:EBC"):
+        compare([moved, ref], versus=(ref, "POIR-DRIL"))
+    rc = cli.main(["compare", str(moved), "--versus", "no-colon"])
+    assert rc == 2
