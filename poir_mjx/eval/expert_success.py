@@ -91,6 +91,10 @@ def mjx_success(task: str, episodes: int, seed: int, sigma_init: float, steps: i
         "diverged": int(diverged.sum()),
         "length_mean": float(first[ok].mean()) if ok.any() else None,
         "seconds": done["seconds"],
+        # per episode, in key order: the step of first success (-1: none) and divergence, so that two physics
+        # settings' runs of the same episodes can be compared episode by episode
+        "first_success": [int(x) for x in first],
+        "diverged_episodes": [int(i) for i in np.flatnonzero(diverged)],
     }
 
 

@@ -62,6 +62,12 @@ def test_batching_keeps_the_episodes_and_drops_the_padding(monkeypatch):
     assert measure(monkeypatch, whole) == expected(7) and whole.batches == [7]
     assert measure(monkeypatch, batched, batch=3) == expected(7)
     assert batched.batches == [3, 3, 3]  # one compiled shape; the last batch's two copies are dropped
+    import jax
+
+    monkeypatch.setattr(mjx_demos, "expert_rollout", StandIn())
+    r = es.mjx_success("lift", 7, 1, SIGMA, steps=5, batch=3)
+    first, div = outcome(jax.random.split(jax.random.PRNGKey(1), 7))
+    assert r["first_success"] == first.tolist() and r["diverged_episodes"] == np.flatnonzero(div).tolist()
 
 
 def test_an_interrupted_measurement_resumes_after_its_finished_batches(tmp_path, monkeypatch):
