@@ -74,7 +74,10 @@ def run(task, policy_fn, params, keys, sigma_init, sigma_action, steps, workers,
         overlap = (os.cpu_count() or 1) > workers
     envs_per_worker = max(1, min(envs_per_worker, -(-n // workers)))
     workers = max(1, min(workers, -(-n // envs_per_worker)))
-    out = _Episodes(n, steps, record)
+    from poir_mjx.eval.outcomes import OutcomeTracker, position_slices
+
+    slices = position_slices(task, observation)
+    out = _Episodes(n, steps, record, OutcomeTracker(n, slices) if slices is not None else None)
     act = batched_policy(policy_fn)
     bar = tqdm(total=n, desc=f"robosuite {task}", unit="ep", disable=not progress)
     with RobosuitePool(task, workers, envs_per_worker, observation) as pool:
@@ -82,6 +85,8 @@ def run(task, policy_fn, params, keys, sigma_init, sigma_action, steps, workers,
         for start in range(0, n, pool.size):
             idx = np.arange(start, min(start + pool.size, n))
             obs, _ = pool.reset([(int(seeds[i]), float(si[i]), float(sa[i])) for i in idx])
+            if out.outcomes is not None:
+                out.outcomes.begin(idx, obs[: len(idx)])
             # padding slots repeat the first episode (a fixed batch: one compilation) and never count
             rows = np.concatenate([idx, np.full(pool.size - len(idx), idx[0])])
             real = np.arange(pool.size) < len(idx)
@@ -89,6 +94,8 @@ def run(task, policy_fn, params, keys, sigma_init, sigma_action, steps, workers,
             bar.update(len(idx))
     bar.close()
     result = {"first_success": out.first, "diverged": out.diverged, "steps": np.full(n, steps)}
+    if out.outcomes is not None:  # how each episode ended (eval/outcomes.py)
+        result["outcome"], result["touched"] = out.outcomes.labels(out.first, out.diverged)
     return result, out.transitions()
 
 
@@ -100,11 +107,12 @@ def batched_policy(policy_fn):
 
 
 class _Episodes:
-    """What the episodes have done so far: first success, divergence and (if recorded) transitions."""
+    """What the episodes have done so far: first success, divergence, where the hand and object are (``outcomes``,
+    where the observation has them) and (if recorded) transitions."""
 
-    def __init__(self, n: int, steps: int, record: bool):
+    def __init__(self, n: int, steps: int, record: bool, outcomes=None):
         self.first, self.diverged = np.full(n, -1, np.int64), np.zeros(n, bool)
-        self.n, self.steps, self.record = n, steps, record
+        self.n, self.steps, self.record, self.outcomes = n, steps, record, outcomes
         self.obs = self.act = self.next_obs = None
         self.valid = np.zeros((n, steps), bool)
 
@@ -125,6 +133,8 @@ class _Episodes:
         new = success[live] & (self.first[r] < 0)
         self.first[r[new]] = t + 1
         self.diverged[r[div[live]]] = True
+        if self.outcomes is not None:
+            self.outcomes.observe(r, obs[live])
         if self.record:
             self.valid[r, t] = ~div[live]
             self.next_obs[r, t] = obs[live]

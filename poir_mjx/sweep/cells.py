@@ -22,6 +22,7 @@ from poir_mjx.envs.env import make_env, make_params
 from poir_mjx.eval import robosuite_eval
 from poir_mjx.sweep.records import read_cell
 from poir_mjx.eval.episodes import run_episodes
+from poir_mjx.eval.outcomes import summary
 from poir_mjx.eval.stats import wilson_interval
 from poir_mjx.sweep.config import SweepConfig, baseline_config
 
@@ -97,8 +98,12 @@ def _evaluate_cells(b: CellBatch, method, agent: POIR, params, js: list[int], pr
     for i, j in enumerate(js):
         sl = slice(i * e, (i + 1) * e)
         first = res["first_success"][sl]
-        b.write(j, b.record(j, int((first >= 0).sum()), int(res["diverged"][sl].sum()),
-                            np.where(first >= 0, first, cfg.max_steps), wall / len(js)))  # fmt: skip
+        rec = b.record(j, int((first >= 0).sum()), int(res["diverged"][sl].sum()),
+                       np.where(first >= 0, first, cfg.max_steps), wall / len(js))  # fmt: skip
+        if "outcome" in res:  # robosuite on the low-dim observation: how each episode ended (eval/outcomes.py)
+            rec["outcomes"] = summary(res["outcome"][sl], res["touched"][sl])
+            rec["episode_outcomes"] = res["outcome"][sl]
+        b.write(j, rec)
     return len(si)
 
 

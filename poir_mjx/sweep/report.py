@@ -14,6 +14,7 @@ from poir_mjx.sweep.curves import save_png, write_baseline_curves, write_learnin
 from poir_mjx.eval.methods import get_method
 from poir_mjx.eval.stats import wilson_interval
 from poir_mjx.sweep.config import SweepConfig
+from poir_mjx.sweep.outcome_table import outcome_table, summed
 from poir_mjx.sweep.plan import SweepPlan, noise_label
 
 
@@ -26,7 +27,7 @@ def collect(plan: SweepPlan, task: str) -> dict:
         n = sum(r["episodes"] for r in recs)
         table[(mname, si, sa)] = {"k": k, "n": n, "ci": wilson_interval(k, n), "data": recs[0]["data"],
                                   "diverged": sum(r["diverged"] for r in recs),
-                                  "simulator": recs[0].get("simulator", "MJX")}  # fmt: skip
+                                  "simulator": recs[0].get("simulator", "MJX"), "outcomes": summed(recs)}  # fmt: skip
     return table
 
 
@@ -121,6 +122,7 @@ def _task_table(cfg: SweepConfig, task: str, table: dict) -> tuple[str, str]:
     versus = _versus_table(cfg, table, cols) + _versus_table(cfg, table, cols, "POIR-random", _ranks)
     for m in (m for m in cfg.methods if get_method(m).online):  # an online method against its own offline agent
         versus += _versus_table(cfg, table, cols, m.removesuffix(" online"), lambda x, m=m: x == m)
+    versus += outcome_table(cfg, table, cols)
     return "\n".join(md) + "\n" + versus, "\n".join(csv) + "\n"
 
 

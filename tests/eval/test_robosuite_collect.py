@@ -55,3 +55,25 @@ def test_transitions_replay_in_a_fresh_robosuite_environment(collected):
         o, _, _, _ = env.step(act[e, t].astype(np.float64))
         np.testing.assert_allclose(flat_obs(o), nxt[e, t], rtol=0, atol=1e-6)
     env.close()
+
+
+def test_each_episode_is_labelled_from_its_own_recorded_positions(collected):
+    """The outcome labels (eval/outcomes.py) agree with the recorded episode: successes are "success", a failure's
+    label follows from where its last recorded hand and object positions are; both loops label alike."""
+    from poir_mjx.eval import outcomes as oc
+
+    _, _, out, (obs, _, nxt, valid), plain = collected
+    assert out["outcome"] == plain["outcome"]
+    hand, obj = oc.position_slices("lift")
+    for e, first in enumerate(out["first_success"]):
+        if first > 0:
+            assert out["outcome"][e] == "success"
+            continue
+        last = nxt[e, int(valid[e].sum()) - 1]
+        dist = np.linalg.norm(last[hand] - last[obj])
+        want = {"ran_away"} if dist > oc.RAN_AWAY_M else (
+            {"stalled_at_object", "moving_near_object"} if dist < oc.AT_OBJECT_M else
+            {"stalled_elsewhere", "moving_near_object"})  # fmt: skip
+        assert out["outcome"][e] in want
+        moved = np.linalg.norm(nxt[e, : int(valid[e].sum()), obj] - obs[e, 0, obj], axis=-1).max()
+        assert bool(out["touched"][e]) == (moved > oc.TOUCH_M)

@@ -115,6 +115,7 @@ def test_tiny_sweep_on_the_object_observation_in_robosuite(tmp_path, capsys):
     out = sw.run_sweep(cfg, tmp_path / "results", tmp_path / "data", tmp_path / "ckpt", progress=False)
     rec = json.loads((out / "cells/lift/EBC/si=0.02_sa=0_seed=0.json").read_text())
     assert rec["episodes"] == 1 and rec["successes"] == 0 and rec["mean_episode_length"] == 3
+    assert "outcomes" not in rec  # the object-state has no hand position to say how an episode ended
     assert rec["config_hash"] == cell_hash(cfg, "lift", "EBC", rec["data"]["sha256"])
     assert json.loads((out / "config.json").read_text())["observation"] == "object"
     assert "Observation: object (robosuite's object-state vector alone)." in (out / "lift.md").read_text()

@@ -48,3 +48,24 @@ def test_an_online_method_is_compared_with_its_offline_agent():
     assert f"| POIR-DRIL online | +7 (p {fisher_exact([[36, 14], [29, 21]]).pvalue:.2g}) | +9 (p" in part
     assert f"| +16 (p {pooled:.2g}) |" in part
     assert "POIR-MOREL online" not in part  # its offline agent (POIR-MOREL) is not in the sweep
+
+
+def test_the_failed_episodes_are_broken_down_where_the_cells_record_how_they_ended():
+    from poir_mjx.sweep.outcome_table import summed
+    from poir_mjx.sweep.report import _task_table
+
+    cfg = SweepConfig(name="t", methods=("EBC", "POIR-random"), sigma_init=(0.2,))
+    data = {"source": "scripted expert"}
+    seeds = [{"success": 10, "diverged": 0, "ran_away": 30, "stalled_at_object": 6, "stalled_elsewhere": 1,
+              "moving_near_object": 3, "touched": 4},
+             {"success": 12, "diverged": 1, "ran_away": 29, "stalled_at_object": 2, "stalled_elsewhere": 2,
+              "moving_near_object": 4, "touched": 5}]  # fmt: skip
+    both = summed([{"outcomes": s} for s in seeds])
+    assert both["ran_away"] == 59 and both["touched"] == 9 and summed([{"outcomes": seeds[0]}, {}]) is None
+    base = {"n": 100, "ci": (0.0, 1.0), "diverged": 0, "data": data, "simulator": "robosuite"}
+    table = {("EBC", 0.2, 0.0): {**base, "k": 22, "outcomes": both}, ("POIR-random", 0.2, 0.0): {**base, "k": 30}}
+    md, _ = _task_table(cfg, "lift", table)
+    assert "How the failed episodes ended (diverged / ran away / stalled at the object" in md
+    assert "| EBC | 1 / 59 / 8 / 3 / 7 (9) |" in md and "| POIR-random |" not in md.split("How the failed")[1]
+    table[("EBC", 0.2, 0.0)]["outcomes"] = None  # published cells made before outcomes were recorded: no table
+    assert "How the failed" not in _task_table(cfg, "lift", table)[0]
