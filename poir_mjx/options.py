@@ -102,6 +102,10 @@ class Compare:
     """RUN:METHOD, e.g. results/cpu-prior:EBC: a second table, every other row's successes minus that row's, matched
     cell by cell (task, sigma_init, training seed), with Fisher / Cochran-Mantel-Haenszel p; the run is added to the
     runs compared if it is not among them."""
+    methods: tuple[str, ...] = ()
+    """Only these methods' rows (and the --versus row); empty: every method of every run."""
+
+    EMPTY_OK = ("methods",)
 
     def outputs(self):
         return [] if self.out is None else [(self.out, "file", "--out")]

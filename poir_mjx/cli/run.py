@@ -38,7 +38,7 @@ def sweep(opts: options.Sweep) -> int:
 def compare(opts: options.Compare) -> int:
     from poir_mjx.sweep.compare import main as compare_main
 
-    return compare_main(list(opts.runs), opts.out, opts.versus)
+    return compare_main(list(opts.runs), opts.out, opts.versus, opts.methods)
 
 
 def report(opts: options.Report) -> int:

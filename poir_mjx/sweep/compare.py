@@ -81,10 +81,14 @@ def _key_slot(cfg: dict, rec: dict) -> tuple:
     return rec.get("seed", 0), None if pos is None else pos * rec["episodes"], rec["episodes"]
 
 
-def compare(runs: list[Path], versus: tuple[Path, str] | None = None) -> str:
+def compare(runs: list[Path], versus: tuple[Path, str] | None = None, methods: tuple[str, ...] = ()) -> str:
+    """The table (and, with `versus`, the differences against that row); `methods`: only these methods' rows (and
+    the reference's)."""
     rows, cols, strata = [], [], {}
     for run in runs:
         cfg, recs = _read_run(run)
+        keep = set(methods) | ({versus[1]} if versus is not None and versus[0].name == run.name else set())
+        recs = [r for r in recs if not methods or r["method"] in keep]
         for rec in recs:
             strata.setdefault((run.name, rec["method"]), []).append(
                 ((rec["task"], rec["sigma_init"], rec["sigma_action"], rec.get("seed", 0)), rec["successes"],
@@ -177,11 +181,11 @@ def parse_versus(text: str | None) -> tuple[Path, str] | None:
     return Path(run), method
 
 
-def main(runs: list[Path], out: Path | None, versus: str | None = None) -> int:
+def main(runs: list[Path], out: Path | None, versus: str | None = None, methods: tuple[str, ...] = ()) -> int:
     ref = parse_versus(versus)
     if ref is not None and ref[0].resolve() not in [r.resolve() for r in runs]:
         runs = [*runs, ref[0]]
-    text = compare(runs, ref)
+    text = compare(runs, ref, methods)
     print(text, end="")
     if out is not None:
         atomic_write_text(out, text)

@@ -100,3 +100,11 @@ def test_versus_marks_other_starting_states_and_names_a_missing_row(tmp_path):
         compare([moved, ref], versus=(ref, "POIR-DRIL"))
     rc = cli.main(["compare", str(moved), "--versus", "no-colon"])
     assert rc == 2
+
+
+def test_methods_keeps_those_rows_and_the_reference(tmp_path):
+    ref = _seeded(tmp_path, "ref", [("EBC", 0.3, 0.0, 0, 2), ("POIR-DRIL", 0.3, 0.0, 0, 4)])
+    other = _seeded(tmp_path, "other", [("EBC", 0.3, 0.0, 0, 3), ("POIR-DRIL", 0.3, 0.0, 0, 5)])
+    text = compare([other, ref], versus=(ref, "EBC"), methods=("POIR-DRIL",))
+    assert "| ref | - | EBC |" in text and "| other | - | EBC |" not in text and "| ref | - | POIR-DRIL |" in text
+    assert "| other | POIR-DRIL | +3 (p " in text
