@@ -11,7 +11,10 @@ labelled when it ends, from the hand's and the object's positions in its observa
 - ``stalled_elsewhere``: at rest the same way, between AT_OBJECT_M and RAN_AWAY_M from the object;
 - ``moving_near_object``: still moving within RAN_AWAY_M of the object when the episode ran out.
 
-``touched`` counts the failed episodes in which the object moved more than TOUCH_M from where it started.
+``moved_object`` counts the failed episodes in which the object was pushed more than TOUCH_M sideways or raised
+more than TOUCH_M above where it started (not lowered: robosuite drops Lift's cube about 1 cm onto the table in the
+first steps). Records made on 2026-12-06 before this rule carry ``touched`` instead, which counted that settling
+drop as a move; it is not shown.
 The object-state observation (``observation: object``) has no hand position: its episodes are not labelled.
 """
 
@@ -56,7 +59,7 @@ class OutcomeTracker:
         self.start = np.zeros((n, 3))
         self.hand = np.zeros((n, 3))
         self.obj = np.zeros((n, 3))
-        self.moved = np.zeros(n)  # the object's largest distance from its start so far
+        self.moved = np.zeros(n)  # the object's largest sideways move or rise from its start so far
         self.recent = np.zeros((n, REST_STEPS, 3))  # the hand's last REST_STEPS positions (a ring)
         self.count = np.zeros(n, np.int64)
 
@@ -70,7 +73,8 @@ class OutcomeTracker:
     def observe(self, rows: np.ndarray, obs: np.ndarray) -> None:
         """The episodes `rows` reached observations `obs` (one step)."""
         self.hand[rows], self.obj[rows] = obs[:, self.hand_at], obs[:, self.obj_at]
-        self.moved[rows] = np.maximum(self.moved[rows], np.linalg.norm(self.obj[rows] - self.start[rows], axis=1))
+        d = self.obj[rows] - self.start[rows]
+        self.moved[rows] = np.maximum(self.moved[rows], np.maximum(np.linalg.norm(d[:, :2], axis=1), d[:, 2]))
         self.recent[rows, self.count[rows] % REST_STEPS] = self.hand[rows]
         self.count[rows] += 1
 
@@ -86,10 +90,10 @@ class OutcomeTracker:
                                 "moving_near_object"))  # fmt: skip
         out = np.where(np.asarray(diverged, bool), "diverged", out)
         out = np.where(np.asarray(first_success) >= 0, "success", out)
-        touched = (out != "success") & (self.moved > TOUCH_M)
-        return [str(x) for x in out], touched
+        moved = (out != "success") & (self.moved > TOUCH_M)
+        return [str(x) for x in out], moved
 
 
-def summary(labels: list[str], touched) -> dict:
+def summary(labels: list[str], moved) -> dict:
     """A cell record's ``outcomes``: the count of each outcome, and of failed episodes that moved the object."""
-    return {**{k: labels.count(k) for k in OUTCOMES}, "touched": int(np.sum(touched))}
+    return {**{k: labels.count(k) for k in OUTCOMES}, "moved_object": int(np.sum(moved))}

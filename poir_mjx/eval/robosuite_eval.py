@@ -95,7 +95,7 @@ def run(task, policy_fn, params, keys, sigma_init, sigma_action, steps, workers,
     bar.close()
     result = {"first_success": out.first, "diverged": out.diverged, "steps": np.full(n, steps)}
     if out.outcomes is not None:  # how each episode ended (eval/outcomes.py)
-        result["outcome"], result["touched"] = out.outcomes.labels(out.first, out.diverged)
+        result["outcome"], result["moved_object"] = out.outcomes.labels(out.first, out.diverged)
     return result, out.transitions()
 
 

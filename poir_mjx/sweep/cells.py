@@ -101,7 +101,7 @@ def _evaluate_cells(b: CellBatch, method, agent: POIR, params, js: list[int], pr
         rec = b.record(j, int((first >= 0).sum()), int(res["diverged"][sl].sum()),
                        np.where(first >= 0, first, cfg.max_steps), wall / len(js))  # fmt: skip
         if "outcome" in res:  # robosuite on the low-dim observation: how each episode ended (eval/outcomes.py)
-            rec["outcomes"] = summary(res["outcome"][sl], res["touched"][sl])
+            rec["outcomes"] = summary(res["outcome"][sl], res["moved_object"][sl])
             rec["episode_outcomes"] = res["outcome"][sl]
         b.write(j, rec)
     return len(si)

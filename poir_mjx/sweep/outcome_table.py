@@ -14,7 +14,10 @@ def summed(recs: list[dict]) -> dict | None:
     """The cells' outcome counts summed over their seeds; None unless every record has them."""
     if not recs or any(not isinstance(r.get("outcomes"), dict) for r in recs):
         return None
-    return {k: sum(int(r["outcomes"].get(k, 0)) for r in recs) for k in (*OUTCOMES, "touched")}
+    out = {k: sum(int(r["outcomes"].get(k, 0)) for r in recs) for k in OUTCOMES}
+    if all("moved_object" in r["outcomes"] for r in recs):  # records of the first rule carry "touched": not shown
+        out["moved_object"] = sum(int(r["outcomes"]["moved_object"]) for r in recs)
+    return out
 
 
 def outcome_table(cfg, table: dict, cols: list) -> str:
@@ -24,8 +27,8 @@ def outcome_table(cfg, table: dict, cols: list) -> str:
     from poir_mjx.eval import outcomes as oc
 
     legend = " / ".join(SHORT[k] for k in FAILURES)
-    md = ["", f"How the failed episodes ended ({legend}; in brackets, failures that moved the object by more than "
-          f"{oc.TOUCH_M * 100:g} cm): at the end the hand was more than {oc.RAN_AWAY_M * 100:g} cm from the object "
+    md = ["", f"How the failed episodes ended ({legend}; in brackets, failures that pushed the object more than "
+          f"{oc.TOUCH_M * 100:g} cm or raised it; ? where a cell was recorded before that count): at the end the hand was more than {oc.RAN_AWAY_M * 100:g} cm from the object "
           f"(ran away), or had moved less than {oc.REST_M * 100:g} cm over the last {oc.REST_STEPS} steps within "
           f"{oc.AT_OBJECT_M * 100:g} cm of it or farther (stalled), or neither (`poir_mjx/eval/outcomes.py`).", "",
           "| method | " + " | ".join(noise_label(si, sa, cfg) for si, sa in cols) + " |",
@@ -34,7 +37,11 @@ def outcome_table(cfg, table: dict, cols: list) -> str:
         cells = []
         for si, sa in cols:
             o = (table.get((m, si, sa)) or {}).get("outcomes")
-            cells.append("-" if o is None else " / ".join(str(o[k]) for k in FAILURES) + f" ({o['touched']})")
+            if o is None:
+                cells.append("-")
+                continue
+            moved = f" ({o['moved_object']})" if "moved_object" in o else " (?)"
+            cells.append(" / ".join(str(o[k]) for k in FAILURES) + moved)
         if any(c != "-" for c in cells):
             md.append(f"| {m} | " + " | ".join(cells) + " |")
     return "\n".join(md) + "\n"

@@ -40,26 +40,28 @@ def test_a_failed_episode_is_labelled_by_where_the_hand_ends_and_whether_it_rest
     tr.begin(np.array([0]), obs[:1])
     for t in range(1, T):
         tr.observe(np.array([0]), obs[t : t + 1])
-    labels, touched = tr.labels(np.array([-1]), np.array([False]))
-    assert labels == [label] and not touched[0]
+    labels, moved = tr.labels(np.array([-1]), np.array([False]))
+    assert labels == [label] and not moved[0]
 
 
-def test_success_and_divergence_come_first_and_touched_counts_failures_that_moved_the_object():
-    T, n = 80, 3
+def test_success_and_divergence_come_first_and_moved_object_counts_failures_that_pushed_or_raised_it():
+    T, n = 80, 5
     tr = oc.OutcomeTracker(n, oc.position_slices("lift"))
     rows = np.arange(n)
     hand = np.zeros((n, 3))
     for t in range(T):
         obj = np.zeros((n, 3))
-        obj[:, 2] = 0.03 * t / T  # every object rises 3 cm
+        obj[:3, 2] = 0.03 * t / T  # three objects rise 3 cm
+        obj[3, 0] = 0.02 * t / T  # one is pushed 2 cm sideways
+        obj[4, 2] = -0.01 * min(t, 5) / 5  # one drops 1 cm as it settles (Lift's cube at reset): not a move
         obs = np.concatenate([_episode(hand[i : i + 1], obj[i : i + 1]) for i in range(n)])
         (tr.begin if t == 0 else tr.observe)(rows, obs)
-    labels, touched = tr.labels(np.array([40, -1, -1]), np.array([False, True, False]))
-    assert labels == ["success", "diverged", "stalled_at_object"]
-    assert touched.tolist() == [False, True, True]  # a success is not a touched failure
-    s = oc.summary(labels, touched)
-    assert s == {"success": 1, "diverged": 1, "ran_away": 0, "stalled_at_object": 1, "stalled_elsewhere": 0,
-                 "moving_near_object": 0, "touched": 2}  # fmt: skip
+    labels, moved = tr.labels(np.array([40, -1, -1, -1, -1]), np.array([False, True, False, False, False]))
+    assert labels == ["success", "diverged", "stalled_at_object", "stalled_at_object", "stalled_at_object"]
+    assert moved.tolist() == [False, True, True, True, False]  # a success is not a failure that moved it
+    s = oc.summary(labels, moved)
+    assert s == {"success": 1, "diverged": 1, "ran_away": 0, "stalled_at_object": 3, "stalled_elsewhere": 0,
+                 "moving_near_object": 0, "moved_object": 3}  # fmt: skip
 
 
 def test_an_episode_shorter_than_the_rest_window_is_never_at_rest():

@@ -57,15 +57,19 @@ def test_the_failed_episodes_are_broken_down_where_the_cells_record_how_they_end
     cfg = SweepConfig(name="t", methods=("EBC", "POIR-random"), sigma_init=(0.2,))
     data = {"source": "scripted expert"}
     seeds = [{"success": 10, "diverged": 0, "ran_away": 30, "stalled_at_object": 6, "stalled_elsewhere": 1,
-              "moving_near_object": 3, "touched": 4},
+              "moving_near_object": 3, "moved_object": 4},
              {"success": 12, "diverged": 1, "ran_away": 29, "stalled_at_object": 2, "stalled_elsewhere": 2,
-              "moving_near_object": 4, "touched": 5}]  # fmt: skip
+              "moving_near_object": 4, "moved_object": 5}]  # fmt: skip
     both = summed([{"outcomes": s} for s in seeds])
-    assert both["ran_away"] == 59 and both["touched"] == 9 and summed([{"outcomes": seeds[0]}, {}]) is None
+    assert both["ran_away"] == 59 and both["moved_object"] == 9 and summed([{"outcomes": seeds[0]}, {}]) is None
     base = {"n": 100, "ci": (0.0, 1.0), "diverged": 0, "data": data, "simulator": "robosuite"}
     table = {("EBC", 0.2, 0.0): {**base, "k": 22, "outcomes": both}, ("POIR-random", 0.2, 0.0): {**base, "k": 30}}
     md, _ = _task_table(cfg, "lift", table)
     assert "How the failed episodes ended (diverged / ran away / stalled at the object" in md
     assert "| EBC | 1 / 59 / 8 / 3 / 7 (9) |" in md and "| POIR-random |" not in md.split("How the failed")[1]
+    old_rule = {k: v for k, v in seeds[0].items() if k != "moved_object"} | {"touched": 40}  # the first rule's count
+    assert "moved_object" not in summed([{"outcomes": old_rule}, {"outcomes": seeds[1]}])
+    table[("EBC", 0.2, 0.0)]["outcomes"] = summed([{"outcomes": old_rule}])
+    assert "| EBC | 0 / 30 / 6 / 1 / 3 (?) |" in _task_table(cfg, "lift", table)[0]
     table[("EBC", 0.2, 0.0)]["outcomes"] = None  # published cells made before outcomes were recorded: no table
     assert "How the failed" not in _task_table(cfg, "lift", table)[0]

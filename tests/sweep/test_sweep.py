@@ -124,7 +124,7 @@ def test_the_same_sweep_evaluated_in_robosuite(dirs, monkeypatch):
     assert rec["simulator"].startswith("robosuite 1.5") and rec["episodes"] == 2
     # how each episode ended (eval/outcomes.py): a label per episode, their counts adding up to the episodes
     assert len(rec["episode_outcomes"]) == 2 and rec["outcomes"]["success"] == rec["successes"]
-    assert sum(v for k, v in rec["outcomes"].items() if k != "touched") == 2
+    assert sum(v for k, v in rec["outcomes"].items() if k != "moved_object") == 2
     assert "Simulator: robosuite 1.5" in (out / "lift.md").read_text()
     assert len(list((root / "ckpt" / "lift").glob("policy-seed0-*.ckpt"))) == 1  # trained once, shared
 
