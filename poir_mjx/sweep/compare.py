@@ -132,7 +132,8 @@ def _versus(versus: tuple[Path, str], rows: list, cols: list, strata: dict) -> s
     ref = strata.get((ref_run.name, ref_method))
     if ref is None:
         have = sorted(f"{r}:{m}" for r, m in strata)
-        raise ConfigError(f"--versus: no row {ref_run.name}:{ref_method} among the runs compared (rows: {', '.join(have)})")
+        raise ConfigError(f"--versus: no row {ref_run.name}:{ref_method} among the runs compared "
+                          f"(rows: {', '.join(have)})")  # fmt: skip
 
     def match(task, si, sa, seed):
         same = [c for c in ref if c[0][0] == task and math.isclose(c[0][1], si) and c[0][3] == seed]
@@ -142,7 +143,8 @@ def _versus(versus: tuple[Path, str], rows: list, cols: list, strata: dict) -> s
     others = [(name, method) for name, _, method, _ in rows if (name, method) != (ref_run.name, ref_method)]
     cols = [c for c in cols if any((c[0], c[1], c[2]) == key[:3] for row in others for key, *_ in strata[row])]
     unpaired = False
-    head = f"| run | method | {' | '.join(f'{t} σ_init {si:g}' + (f' σ_act {sa:g}' if sa else '') for t, si, sa in cols)} | all cells |"
+    labels = [f"{t} σ_init {si:g}" + (f" σ_act {sa:g}" if sa else "") for t, si, sa in cols]
+    head = f"| run | method | {' | '.join(labels)} | all cells |"
     lines = ["", f"Versus {ref_run.name}:{ref_method}: difference in successes, two-sided Fisher exact p (one seed) or "
              "Cochran-Mantel-Haenszel p over the training seeds; all cells: over every (cell, seed) both have.", "",
              head, "|---|---|" + "---|" * (len(cols) + 1)]  # fmt: skip
@@ -171,6 +173,24 @@ def _versus(versus: tuple[Path, str], rows: list, cols: list, strata: dict) -> s
     return "\n".join(lines) + "\n"
 
 
+def _provenance(runs: list[Path]) -> str:
+    """The command and, per run, where its cells come from (simulator, machine, expert data's digest)."""
+    from poir_mjx.versions import command_line
+
+    lines = [f"Command: `{command_line()}`.", ""]
+    for run in runs:
+        _, recs = _read_run(run)
+        where = sorted({(str(r.get("simulator", "MJX")), str(r.get("machine", "?")),
+                         str((r.get("data") or {}).get("sha256", "?")), _stack(r.get("stack"))) for r in recs})  # fmt: skip
+        lines.append(f"- {run.name}: " + "; ".join(f"{sim}, {mach}, demos sha256 {sha}{st}"
+                                                    for sim, mach, sha, st in where))  # fmt: skip
+    return "\n".join(lines) + "\n\n"
+
+
+def _stack(stack) -> str:
+    return "" if not isinstance(stack, dict) else ", " + ", ".join(f"{k} {v}" for k, v in stack.items())
+
+
 def parse_versus(text: str | None) -> tuple[Path, str] | None:
     """``RUN:METHOD`` (the method after the last colon) as (run folder, method); None for None."""
     if text is None:
@@ -185,7 +205,7 @@ def main(runs: list[Path], out: Path | None, versus: str | None = None, methods:
     ref = parse_versus(versus)
     if ref is not None and ref[0].resolve() not in [r.resolve() for r in runs]:
         runs = [*runs, ref[0]]
-    text = compare(runs, ref, methods)
+    text = _provenance(runs) + compare(runs, ref, methods)
     print(text, end="")
     if out is not None:
         atomic_write_text(out, text)
