@@ -142,17 +142,17 @@ def _versus(versus: tuple[Path, str], rows: list, cols: list, strata: dict) -> s
 
     others = [(name, method) for name, _, method, _ in rows if (name, method) != (ref_run.name, ref_method)]
     cols = [c for c in cols if any((c[0], c[1], c[2]) == key[:3] for row in others for key, *_ in strata[row])]
-    unpaired = False
     labels = [f"{t} σ_init {si:g}" + (f" σ_act {sa:g}" if sa else "") for t, si, sa in cols]
     head = f"| run | method | {' | '.join(labels)} | all cells |"
     lines = ["", f"Versus {ref_run.name}:{ref_method}: difference in successes, two-sided Fisher exact p (one seed) or "
-             "Cochran-Mantel-Haenszel p over the training seeds; all cells: over every (cell, seed) both have.", "",
+             "Cochran-Mantel-Haenszel p over the training seeds; all cells: over every (cell, seed) both have; all runs: "
+             "a method's rows of several runs together.", "",
              head, "|---|---|" + "---|" * (len(cols) + 1)]  # fmt: skip
-    for name, method in others:
-        out, every = [], []
+    def cells(entries: list) -> tuple[list[str], bool]:
+        out, every, unpaired = [], [], False
         for col in cols:
             pairs, mark = [], ""
-            for (task, si, sa, seed), k, n, slot in strata[(name, method)]:
+            for (task, si, sa, seed), k, n, slot in entries:
                 r = match(task, si, sa, seed) if (task, si, sa) == col else None
                 if r is not None:
                     pairs.append((k, n, r[1], r[2]))
@@ -167,7 +167,18 @@ def _versus(versus: tuple[Path, str], rows: list, cols: list, strata: dict) -> s
             out.append(f"{d:+d} (p {p:.2g}){mark}")
         total = sum(k1 - k2 for k1, _, k2, _ in every)
         out.append(f"{total:+d} (p {pooled_p_value(every):.2g})" if len(every) > 1 else "-")
+        return out, unpaired
+
+    unpaired, runs_of = False, {}
+    for name, method in others:
+        out, mark = cells(strata[(name, method)])
+        unpaired |= mark
+        runs_of.setdefault(method, []).append(name)
         lines.append(f"| {name} | {method} | " + " | ".join(out) + " |")
+    for method, names in runs_of.items():  # a method in several runs (e.g. one per training seed): every stratum
+        if len(names) > 1:
+            out, _ = cells([e for name in names for e in strata[(name, method)]])
+            lines.append(f"| all {len(names)} runs | {method} | " + " | ".join(out) + " |")
     if unpaired:
         lines += ["", "‡ other starting states than the reference's (other episode keys): not a paired comparison."]
     return "\n".join(lines) + "\n"

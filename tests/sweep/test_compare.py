@@ -108,3 +108,14 @@ def test_methods_keeps_those_rows_and_the_reference(tmp_path):
     text = compare([other, ref], versus=(ref, "EBC"), methods=("POIR-DRIL",))
     assert "| ref | - | EBC |" in text and "| other | - | EBC |" not in text and "| ref | - | POIR-DRIL |" in text
     assert "| other | POIR-DRIL | +3 (p " in text
+
+
+def test_a_method_in_several_runs_is_also_pooled_over_them(tmp_path):
+    from poir_mjx.eval.stats import pooled_p_value
+
+    ref = _seeded(tmp_path, "ref", [("EBC", 0.3, 0.0, 0, 2), ("EBC", 0.3, 0.0, 1, 3)])
+    a = _seeded(tmp_path, "a", [("POIR-DRIL", 0.3, 0.0, 0, 6)])
+    b = _seeded(tmp_path, "b", [("POIR-DRIL", 0.3, 0.0, 1, 8)])
+    text = compare([a, b, ref], versus=(ref, "EBC"))
+    both = pooled_p_value([(6, 10, 2, 10), (8, 10, 3, 10)])
+    assert f"| all 2 runs | POIR-DRIL | +9 (p {both:.2g}) | +9 (p {both:.2g}) |" in text
