@@ -90,8 +90,11 @@ def _write_task(plan: SweepPlan, task: str, table: dict) -> str:
 
 def _data_source(data: dict) -> str:
     if data.get("source") == "scripted expert":
-        return (f"scripted expert ({data.get('expert', '?')}, {data.get('simulator', '?')}, "
-                f"{data.get('num_demos', '?')} demos)")
+        style = ", human-like style (demo_style human_like)" if data.get("demo_style", "scripted") != "scripted" else ""
+        si = data.get("sigma_init", 0.02)
+        at = f", recorded at sigma_init {si:g}" if isinstance(si, (int, float)) and si != 0.02 else ""
+        return (f"scripted expert ({data.get('expert', '?')}{style}, {data.get('simulator', '?')}, "
+                f"{data.get('num_demos', '?')} demos{at})")
     return f"robomimic file {data.get('path')}"
 
 

@@ -73,3 +73,12 @@ def test_the_failed_episodes_are_broken_down_where_the_cells_record_how_they_end
     assert "| EBC | 0 / 30 / 6 / 1 / 3 (?) |" in _task_table(cfg, "lift", table)[0]
     table[("EBC", 0.2, 0.0)]["outcomes"] = None  # published cells made before outcomes were recorded: no table
     assert "How the failed" not in _task_table(cfg, "lift", table)[0]
+
+
+def test_the_expert_data_line_names_the_demo_style_and_where_they_were_recorded():
+    from poir_mjx.sweep.report import _data_source
+
+    base = {"source": "scripted expert", "expert": "v1", "simulator": "robosuite", "num_demos": 200, "sigma_init": 0.02}
+    assert _data_source(base) == "scripted expert (v1, robosuite, 200 demos)"
+    assert "human-like style" in _data_source({**base, "demo_style": "human_like"})
+    assert _data_source({**base, "sigma_init": 0.3}).endswith("200 demos, recorded at sigma_init 0.3)")
