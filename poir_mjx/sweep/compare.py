@@ -92,7 +92,7 @@ def compare(runs: list[Path], versus: tuple[Path, str] | None = None, methods: t
         for rec in recs:
             strata.setdefault((run.name, rec["method"]), []).append(
                 ((rec["task"], rec["sigma_init"], rec["sigma_action"], rec.get("seed", 0)), rec["successes"],
-                 rec["episodes"], _key_slot(cfg, rec)))  # fmt: skip
+                 rec["episodes"], _key_slot(cfg, rec), _labels(rec)))  # fmt: skip
         by_method: dict[str, dict] = {}
         for rec in recs:
             col = (rec["task"], rec["sigma_init"], rec["sigma_action"])
@@ -152,7 +152,7 @@ def _versus(versus: tuple[Path, str], rows: list, cols: list, strata: dict) -> s
         out, every, unpaired = [], [], False
         for col in cols:
             pairs, mark = [], ""
-            for (task, si, sa, seed), k, n, slot in entries:
+            for (task, si, sa, seed), k, n, slot, _ in entries:
                 r = match(task, si, sa, seed) if (task, si, sa) == col else None
                 if r is not None:
                     pairs.append((k, n, r[1], r[2]))
@@ -179,9 +179,45 @@ def _versus(versus: tuple[Path, str], rows: list, cols: list, strata: dict) -> s
         if len(names) > 1:
             out, _ = cells([e for name in names for e in strata[(name, method)]])
             lines.append(f"| all {len(names)} runs | {method} | " + " | ".join(out) + " |")
+    lines += _transitions(others, strata, match, f"{ref_run.name}:{ref_method}")
     if unpaired:
         lines += ["", "‡ other starting states than the reference's (other episode keys): not a paired comparison."]
     return "\n".join(lines) + "\n"
+
+
+def _labels(rec: dict) -> list[str] | None:
+    """A cell record's per-episode outcomes (eval/outcomes.py), if it has a well-formed list of them."""
+    from poir_mjx.eval.outcomes import OUTCOMES
+
+    labels = rec.get("episode_outcomes")
+    ok = isinstance(labels, list) and len(labels) == rec["episodes"] and all(x in OUTCOMES for x in labels)
+    return labels if ok else None
+
+
+def _transitions(others: list, strata: dict, match, ref_name: str) -> list[str]:
+    """Episode by episode on the same starts, where both cells record how each episode ended: per row, how the
+    reference's episodes of each outcome ended under the row's method (markdown lines; none without labels)."""
+    from collections import Counter
+
+    from poir_mjx.eval.outcomes import OUTCOMES
+
+    table = []
+    for name, method in others:
+        moves = Counter()
+        for (task, si, sa, seed), _, _, slot, labels in strata[(name, method)]:
+            r = match(task, si, sa, seed)
+            if labels is not None and r is not None and r[4] is not None and slot == r[3]:
+                moves.update(zip(r[4], labels))
+        for start in OUTCOMES:
+            row = [moves[(start, end)] for end in OUTCOMES]
+            if sum(row):
+                table.append(f"| {name} | {method} | {start} | {sum(row)} | " + " | ".join(map(str, row)) + " |")
+    if not table:
+        return []
+    return ["", f"Episode by episode on the same starts (cells that record how each episode ended): the {ref_name} "
+            "episodes of each outcome, and how the same episodes ended under the row's method.", "",
+            f"| run | method | {ref_name} | episodes | " + " | ".join(OUTCOMES) + " |",
+            "|---|---|---|---|" + "---|" * len(OUTCOMES), *table]  # fmt: skip
 
 
 def _provenance(runs: list[Path]) -> str:

@@ -57,8 +57,9 @@ def test_a_folder_without_cells_is_one_line_and_exit_2(tmp_path, capsys):
         compare([tmp_path])
 
 
-def _seeded(root, name, cells, sigma_init=(0.02, 0.3), sigma_action=(0.0,), episodes=10):
-    """A run folder with per-seed cells (method, si, sa, seed, k) of `episodes` episodes each."""
+def _seeded(root, name, cells, sigma_init=(0.02, 0.3), sigma_action=(0.0,), episodes=10, labels=None):
+    """A run folder with per-seed cells (method, si, sa, seed, k) of `episodes` episodes each (labels: each cell's
+    episode_outcomes, in order)."""
     run = root / name
     (run / "cells").mkdir(parents=True)
     cfg = {"name": name, "sigma_init": list(sigma_init), "sigma_action": list(sigma_action), "seeds": [0, 1],
@@ -68,6 +69,8 @@ def _seeded(root, name, cells, sigma_init=(0.02, 0.3), sigma_action=(0.0,), epis
     for j, (method, si, sa, seed, k) in enumerate(cells):
         rec = {"task": "lift", "method": method, "sigma_init": si, "sigma_action": sa, "seed": seed, "successes": k,
                "episodes": episodes, "config_hash": cell_hash(sweep, "lift", method, "abc"), "data": {"sha256": "abc"}}
+        if labels is not None:
+            rec["episode_outcomes"] = labels[j]
         (run / "cells" / f"{j}.json").write_text(json.dumps(rec))
     return run
 
@@ -119,3 +122,17 @@ def test_a_method_in_several_runs_is_also_pooled_over_them(tmp_path):
     text = compare([a, b, ref], versus=(ref, "EBC"))
     both = pooled_p_value([(6, 10, 2, 10), (8, 10, 3, 10)])
     assert f"| all 2 runs | POIR-DRIL | +9 (p {both:.2g}) | +9 (p {both:.2g}) |" in text
+
+
+def test_episode_by_episode_where_both_cells_record_how_each_episode_ended(tmp_path):
+    stall, away, ok = "stalled_at_object", "ran_away", "success"
+    ref = _seeded(tmp_path, "ref", [("EBC", 0.3, 0.0, 0, 1)], episodes=4, labels=[[ok, stall, stall, away]])
+    row = _seeded(tmp_path, "row", [("EBC", 0.3, 0.05, 0, 3)], sigma_action=(0.05,), episodes=4,
+                  labels=[[ok, ok, ok, away]])  # fmt: skip
+    text = compare([row, ref], versus=(ref, "EBC"))
+    assert "Episode by episode on the same starts" in text
+    assert "| row | EBC | stalled_at_object | 2 | 2 | 0 | 0 | 0 | 0 | 0 |" in text  # both stalls now succeed
+    assert "| row | EBC | ran_away | 1 | 0 | 0 | 1 | 0 | 0 | 0 |" in text
+    moved = _seeded(tmp_path, "moved", [("EBC", 0.3, 0.0, 0, 3)], sigma_init=(0.1, 0.2, 0.3), episodes=4,
+                    labels=[[ok, ok, ok, away]])  # fmt: skip
+    assert "Episode by episode" not in compare([moved, ref], versus=(ref, "EBC"))  # other starts: not paired
