@@ -141,12 +141,13 @@ def _versus(versus: tuple[Path, str], rows: list, cols: list, strata: dict) -> s
         return exact[0] if exact else (same[0] if len(same) == 1 else None)
 
     others = [(name, method) for name, _, method, _ in rows if (name, method) != (ref_run.name, ref_method)]
+    overrides_of = {name: overrides for name, overrides, _, _ in rows}
     cols = [c for c in cols if any((c[0], c[1], c[2]) == key[:3] for row in others for key, *_ in strata[row])]
     labels = [f"{t} σ_init {si:g}" + (f" σ_act {sa:g}" if sa else "") for t, si, sa in cols]
     head = f"| run | method | {' | '.join(labels)} | all cells |"
     lines = ["", f"Versus {ref_run.name}:{ref_method}: difference in successes, two-sided Fisher exact p (one seed) or "
              "Cochran-Mantel-Haenszel p over the training seeds; all cells: over every (cell, seed) both have; all runs: "
-             "a method's rows of several runs together.", "",
+             "a method's rows of several runs with the same overrides and noise cells (one per training seed) together.", "",
              head, "|---|---|" + "---|" * (len(cols) + 1)]  # fmt: skip
     def cells(entries: list) -> tuple[list[str], bool]:
         out, every, unpaired = [], [], False
@@ -173,9 +174,11 @@ def _versus(versus: tuple[Path, str], rows: list, cols: list, strata: dict) -> s
     for name, method in others:
         out, mark = cells(strata[(name, method)])
         unpaired |= mark
-        runs_of.setdefault(method, []).append(name)
+        # pooled only with runs of the same overrides and noise cells (e.g. one run per training seed)
+        same = (method, overrides_of[name], frozenset(key[:3] for key, *_ in strata[(name, method)]))
+        runs_of.setdefault(same, []).append(name)
         lines.append(f"| {name} | {method} | " + " | ".join(out) + " |")
-    for method, names in runs_of.items():  # a method in several runs (e.g. one per training seed): every stratum
+    for (method, _, _), names in runs_of.items():  # a method in several such runs: every stratum
         if len(names) > 1:
             out, _ = cells([e for name in names for e in strata[(name, method)]])
             lines.append(f"| all {len(names)} runs | {method} | " + " | ".join(out) + " |")

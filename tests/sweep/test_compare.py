@@ -136,3 +136,12 @@ def test_episode_by_episode_where_both_cells_record_how_each_episode_ended(tmp_p
     moved = _seeded(tmp_path, "moved", [("EBC", 0.3, 0.0, 0, 3)], sigma_init=(0.1, 0.2, 0.3), episodes=4,
                     labels=[[ok, ok, ok, away]])  # fmt: skip
     assert "Episode by episode" not in compare([moved, ref], versus=(ref, "EBC"))  # other starts: not paired
+
+
+def test_runs_of_other_noise_cells_are_not_pooled(tmp_path):
+    ref = _seeded(tmp_path, "ref", [("EBC", 0.3, 0.1, 0, 2), ("EBC", 0.3, 0.1, 1, 3)], sigma_action=(0.1,))
+    a = _seeded(tmp_path, "a", [("EBC", 0.3, 0.0, 0, 6)])
+    b = _seeded(tmp_path, "b", [("EBC", 0.3, 0.0, 1, 8)])
+    c = _seeded(tmp_path, "c", [("EBC", 0.3, 0.03, 1, 7)], sigma_action=(0.03,))  # another action noise
+    text = compare([a, b, c, ref], versus=(ref, "EBC"))
+    assert "| all 2 runs | EBC |" in text and "all 3 runs" not in text
