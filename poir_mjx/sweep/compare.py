@@ -81,12 +81,13 @@ def _key_slot(cfg: dict, rec: dict) -> tuple:
     return rec.get("seed", 0), None if pos is None else pos * rec["episodes"], rec["episodes"]
 
 
-def compare(runs: list[Path], versus: tuple[Path, str] | None = None, methods: tuple[str, ...] = ()) -> str:
+def compare(runs: list[Path], versus: tuple[Path, str] | None = None, methods: tuple[str, ...] = (),
+            read: dict | None = None) -> str:  # fmt: skip
     """The table (and, with `versus`, the differences against that row); `methods`: only these methods' rows (and
     the reference's)."""
     rows, cols, strata = [], [], {}
     for run in runs:
-        cfg, recs = _read_run(run)
+        cfg, recs = read[run] if read is not None else _read_run(run)
         keep = set(methods) | ({versus[1]} if versus is not None and versus[0].name == run.name else set())
         recs = [r for r in recs if not methods or r["method"] in keep]
         for rec in recs:
@@ -223,13 +224,12 @@ def _transitions(others: list, strata: dict, match, ref_name: str) -> list[str]:
             "|---|---|---|---|" + "---|" * len(OUTCOMES), *table]  # fmt: skip
 
 
-def _provenance(runs: list[Path]) -> str:
+def _provenance(read: dict) -> str:
     """The command and, per run, where its cells come from (simulator, machine, expert data's digest)."""
     from poir_mjx.versions import command_line
 
     lines = [f"Command: `{command_line()}`.", ""]
-    for run in runs:
-        _, recs = _read_run(run)
+    for run, (_, recs) in read.items():
         where = sorted({(str(r.get("simulator", "MJX")), str(r.get("machine", "?")),
                          str((r.get("data") or {}).get("sha256", "?")), _stack(r.get("stack"))) for r in recs})  # fmt: skip
         lines.append(f"- {run.name}: " + "; ".join(f"{sim}, {mach}, demos sha256 {sha}{st}"
@@ -255,7 +255,8 @@ def main(runs: list[Path], out: Path | None, versus: str | None = None, methods:
     ref = parse_versus(versus)
     if ref is not None and ref[0].resolve() not in [r.resolve() for r in runs]:
         runs = [*runs, ref[0]]
-    text = _provenance(runs) + compare(runs, ref, methods)
+    read = {run: _read_run(run) for run in runs}  # each run folder read (and its stale cells counted) once
+    text = _provenance(read) + compare(runs, ref, methods, read)
     print(text, end="")
     if out is not None:
         atomic_write_text(out, text)
