@@ -81,7 +81,9 @@ def test_plain_ppo_learns_the_toy_with_its_true_reward():
     state = ppo.init(jax.random.PRNGKey(1), expert.obs, expert.actions, DEPLOY, None)
     success = success_rate(ppo.policy_fn())
     assert success((state.params["policy"], state.obs_norm)) <= 0.1
-    state, _ = ppo.train(state, 50)
+    # 100 iterations: at 50, this seed reached 0 of 32 on one 2-core AMD EPYC and 32 of 32 on another (CPU numerics);
+    # at 100, seeds 0-5 all reach 32 of 32 on the first (at 50, four of six did)
+    state, _ = ppo.train(state, 100)
     assert success((state.params["policy"], state.obs_norm)) >= 0.8
 
 
