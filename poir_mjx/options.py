@@ -98,14 +98,15 @@ class Compare:
     """Run folders (results/<name>)."""
     out: Optional[Path] = None
     """Also write the table to this file (markdown)."""
-    versus: Optional[str] = None
+    versus: tuple[str, ...] = ()
     """RUN:METHOD, e.g. results/cpu-prior:EBC: a second table, every other row's successes minus that row's, matched
     cell by cell (task, sigma_init, training seed), with Fisher / Cochran-Mantel-Haenszel p; the run is added to the
-    runs compared if it is not among them."""
+    runs compared if it is not among them. Several (e.g. one run per training seed) form one reference row of all
+    their cells; two with the same cell are refused."""
     methods: tuple[str, ...] = ()
-    """Only these methods' rows (and the --versus row); empty: every method of every run."""
+    """Only these methods' rows (and the --versus rows); empty: every method of every run."""
 
-    EMPTY_OK = ("methods",)
+    EMPTY_OK = ("methods", "versus")
 
     def outputs(self):
         return [] if self.out is None else [(self.out, "file", "--out")]

@@ -9,7 +9,8 @@ share their episode keys, so their rows are paired comparisons.
 ``--versus RUN:METHOD`` adds a second table: every other row's successes minus that reference row's, cell by cell
 (matched by task, sigma_init and training seed; by sigma_action too where the reference has several), with the
 two-sided Fisher exact p of one seed's pair, or the Cochran-Mantel-Haenszel p over the seeds (each seed a stratum),
-and an "all cells" column over every stratum. A difference drawn on other starting states than the reference's (its
+and an "all cells" column over every stratum. Several ``RUN:METHOD`` references (e.g. one run per training seed) act as one
+reference row made of all their cells; two of them with the same cell are refused. A difference drawn on other starting states than the reference's (its
 episode keys differ: another seed, episode count or grid position) is marked, since it is not a paired comparison.
 """
 
@@ -81,14 +82,14 @@ def _key_slot(cfg: dict, rec: dict) -> tuple:
     return rec.get("seed", 0), None if pos is None else pos * rec["episodes"], rec["episodes"]
 
 
-def compare(runs: list[Path], versus: tuple[Path, str] | None = None, methods: tuple[str, ...] = (),
+def compare(runs: list[Path], versus: tuple[tuple[Path, str], ...] = (), methods: tuple[str, ...] = (),
             read: dict | None = None) -> str:  # fmt: skip
-    """The table (and, with `versus`, the differences against that row); `methods`: only these methods' rows (and
-    the reference's)."""
+    """The table (and, with `versus`, the differences against those (run, method) rows taken as one reference);
+    `methods`: only these methods' rows (and the reference's)."""
     rows, cols, strata = [], [], {}
     for run in runs:
         cfg, recs = read[run] if read is not None else _read_run(run)
-        keep = set(methods) | ({versus[1]} if versus is not None and versus[0].name == run.name else set())
+        keep = set(methods) | {m for r, m in versus if r.name == run.name}
         recs = [r for r in recs if not methods or r["method"] in keep]
         for rec in recs:
             strata.setdefault((run.name, rec["method"]), []).append(
@@ -120,33 +121,47 @@ def compare(runs: list[Path], versus: tuple[Path, str] | None = None, methods: t
             out.append(f"{k}/{n} = {k / n:.2f} [{lo:.2f}, {hi:.2f}]")
         lines.append(f"| {name} | {overrides} | {method} | " + " | ".join(out) + " |")
     text = "\n".join(lines) + "\n"
-    if versus is not None:
+    if versus:
         text += _versus(versus, rows, cols, strata)
     return text
 
 
-def _versus(versus: tuple[Path, str], rows: list, cols: list, strata: dict) -> str:
+def _reference(versus: tuple[tuple[Path, str], ...], strata: dict) -> list:
+    """The cells of every reference row together (each cell from one reference only)."""
+    ref, owner = [], {}
+    for run, method in versus:
+        cells = strata.get((run.name, method))
+        if cells is None:
+            have = sorted(f"{r}:{m}" for r, m in strata)
+            raise ConfigError(f"--versus: no row {run.name}:{method} among the runs compared (rows: {', '.join(have)})")
+        for cell in cells:
+            task, si, sa, seed = cell[0]
+            first = owner.setdefault((task, round(si, 9), round(sa, 9), seed), f"{run.name}:{method}")
+            if first != f"{run.name}:{method}":
+                raise ConfigError(f"--versus: {first} and {run.name}:{method} both have {task} sigma_init {si:g} "
+                                  f"sigma_action {sa:g} seed {seed}; give one reference per cell (e.g. one per training seed)")  # fmt: skip
+            ref.append(cell)
+    return ref
+
+
+def _versus(versus: tuple[tuple[Path, str], ...], rows: list, cols: list, strata: dict) -> str:
     from poir_mjx.eval.episodes import agreement_p_value
     from poir_mjx.eval.stats import pooled_p_value
 
-    ref_run, ref_method = versus
-    ref = strata.get((ref_run.name, ref_method))
-    if ref is None:
-        have = sorted(f"{r}:{m}" for r, m in strata)
-        raise ConfigError(f"--versus: no row {ref_run.name}:{ref_method} among the runs compared "
-                          f"(rows: {', '.join(have)})")  # fmt: skip
+    ref, ref_name = _reference(versus, strata), " + ".join(f"{r.name}:{m}" for r, m in versus)
+    refs = {(r.name, m) for r, m in versus}
 
     def match(task, si, sa, seed):
         same = [c for c in ref if c[0][0] == task and math.isclose(c[0][1], si) and c[0][3] == seed]
         exact = [c for c in same if math.isclose(c[0][2], sa)]
         return exact[0] if exact else (same[0] if len(same) == 1 else None)
 
-    others = [(name, method) for name, _, method, _ in rows if (name, method) != (ref_run.name, ref_method)]
+    others = [(name, method) for name, _, method, _ in rows if (name, method) not in refs]
     overrides_of = {name: overrides for name, overrides, _, _ in rows}
     cols = [c for c in cols if any((c[0], c[1], c[2]) == key[:3] for row in others for key, *_ in strata[row])]
     labels = [f"{t} σ_init {si:g}" + (f" σ_act {sa:g}" if sa else "") for t, si, sa in cols]
     head = f"| run | method | {' | '.join(labels)} | all cells |"
-    lines = ["", f"Versus {ref_run.name}:{ref_method}: difference in successes, two-sided Fisher exact p (one seed) or "
+    lines = ["", f"Versus {ref_name}: difference in successes, two-sided Fisher exact p (one seed) or "
              "Cochran-Mantel-Haenszel p over the training seeds; all cells: over every (cell, seed) both have; all runs: "
              "a method's rows of several runs with the same overrides and noise cells (one per training seed) together.", "",
              head, "|---|---|" + "---|" * (len(cols) + 1)]  # fmt: skip
@@ -183,7 +198,7 @@ def _versus(versus: tuple[Path, str], rows: list, cols: list, strata: dict) -> s
         if len(names) > 1:
             out, _ = cells([e for name in names for e in strata[(name, method)]])
             lines.append(f"| all {len(names)} runs | {method} | " + " | ".join(out) + " |")
-    lines += _transitions(others, strata, match, f"{ref_run.name}:{ref_method}")
+    lines += _transitions(others, strata, match, ref_name)
     if unpaired:
         lines += ["", "‡ other starting states than the reference's (other episode keys): not a paired comparison."]
     return "\n".join(lines) + "\n"
@@ -241,20 +256,19 @@ def _stack(stack) -> str:
     return "" if not isinstance(stack, dict) else ", " + ", ".join(f"{k} {v}" for k, v in stack.items())
 
 
-def parse_versus(text: str | None) -> tuple[Path, str] | None:
-    """``RUN:METHOD`` (the method after the last colon) as (run folder, method); None for None."""
-    if text is None:
-        return None
+def parse_versus(text: str) -> tuple[Path, str]:
+    """``RUN:METHOD`` (the method after the last colon) as (run folder, method)."""
     run, sep, method = text.rpartition(":")
     if not sep or not run or not method:
         raise ConfigError(f"--versus: {text!r} is not RUN:METHOD (e.g. results/cpu-prior:EBC)")
     return Path(run), method
 
 
-def main(runs: list[Path], out: Path | None, versus: str | None = None, methods: tuple[str, ...] = ()) -> int:
-    ref = parse_versus(versus)
-    if ref is not None and ref[0].resolve() not in [r.resolve() for r in runs]:
-        runs = [*runs, ref[0]]
+def main(runs: list[Path], out: Path | None, versus: tuple[str, ...] = (), methods: tuple[str, ...] = ()) -> int:
+    ref = tuple(parse_versus(v) for v in versus)
+    for run, _ in ref:
+        if run.resolve() not in [r.resolve() for r in runs]:
+            runs = [*runs, run]
     read = {run: _read_run(run) for run in runs}  # each run folder read (and its stale cells counted) once
     text = _provenance(read) + compare(runs, ref, methods, read)
     print(text, end="")

@@ -83,7 +83,7 @@ def test_versus_pairs_cells_by_seed_and_pools_the_seeds(tmp_path):
                   sigma_action=(0.05,))  # fmt: skip
     base = _seeded(tmp_path, "base", [("POIR-DRIL", 0.02, 0.0, 0, 9), ("POIR-DRIL", 0.02, 0.0, 1, 8),
                                       ("POIR-DRIL", 0.3, 0.0, 0, 4), ("POIR-DRIL", 0.3, 0.0, 1, 3)])  # fmt: skip
-    text = compare([base, ref], versus=(ref, "EBC"))
+    text = compare([base, ref], versus=((ref, "EBC"),))
     row = next(line for line in text.split("Versus noise:EBC")[1].splitlines() if line.startswith("| base | POIR-DRIL"))
     cells = [c.strip() for c in row.strip("|").split("|")][2:]
     # sigma_init 0.02: both seeds matched (other sigma_action, the reference's only one), pooled over the seeds
@@ -97,10 +97,10 @@ def test_versus_pairs_cells_by_seed_and_pools_the_seeds(tmp_path):
 def test_versus_marks_other_starting_states_and_names_a_missing_row(tmp_path):
     ref = _seeded(tmp_path, "ref", [("EBC", 0.3, 0.0, 0, 2)])
     moved = _seeded(tmp_path, "moved", [("EBC", 0.3, 0.0, 0, 7)], sigma_init=(0.1, 0.2, 0.3))  # another grid position
-    text = compare([moved, ref], versus=(ref, "EBC"))
+    text = compare([moved, ref], versus=((ref, "EBC"),))
     assert "+5 (p " in text and "‡" in text and "not a paired comparison" in text
     with pytest.raises(Exception, match=r"--versus: no row ref:POIR-DRIL .*rows: moved:EBC, ref:EBC"):
-        compare([moved, ref], versus=(ref, "POIR-DRIL"))
+        compare([moved, ref], versus=((ref, "POIR-DRIL"),))
     rc = cli.main(["compare", str(moved), "--versus", "no-colon"])
     assert rc == 2
 
@@ -108,7 +108,7 @@ def test_versus_marks_other_starting_states_and_names_a_missing_row(tmp_path):
 def test_methods_keeps_those_rows_and_the_reference(tmp_path):
     ref = _seeded(tmp_path, "ref", [("EBC", 0.3, 0.0, 0, 2), ("POIR-DRIL", 0.3, 0.0, 0, 4)])
     other = _seeded(tmp_path, "other", [("EBC", 0.3, 0.0, 0, 3), ("POIR-DRIL", 0.3, 0.0, 0, 5)])
-    text = compare([other, ref], versus=(ref, "EBC"), methods=("POIR-DRIL",))
+    text = compare([other, ref], versus=((ref, "EBC"),), methods=("POIR-DRIL",))
     assert "| ref | - | EBC |" in text and "| other | - | EBC |" not in text and "| ref | - | POIR-DRIL |" in text
     assert "| other | POIR-DRIL | +3 (p " in text
 
@@ -119,7 +119,7 @@ def test_a_method_in_several_runs_is_also_pooled_over_them(tmp_path):
     ref = _seeded(tmp_path, "ref", [("EBC", 0.3, 0.0, 0, 2), ("EBC", 0.3, 0.0, 1, 3)])
     a = _seeded(tmp_path, "a", [("POIR-DRIL", 0.3, 0.0, 0, 6)])
     b = _seeded(tmp_path, "b", [("POIR-DRIL", 0.3, 0.0, 1, 8)])
-    text = compare([a, b, ref], versus=(ref, "EBC"))
+    text = compare([a, b, ref], versus=((ref, "EBC"),))
     both = pooled_p_value([(6, 10, 2, 10), (8, 10, 3, 10)])
     assert f"| all 2 runs | POIR-DRIL | +9 (p {both:.2g}) | +9 (p {both:.2g}) |" in text
 
@@ -129,13 +129,13 @@ def test_episode_by_episode_where_both_cells_record_how_each_episode_ended(tmp_p
     ref = _seeded(tmp_path, "ref", [("EBC", 0.3, 0.0, 0, 1)], episodes=4, labels=[[ok, stall, stall, away]])
     row = _seeded(tmp_path, "row", [("EBC", 0.3, 0.05, 0, 3)], sigma_action=(0.05,), episodes=4,
                   labels=[[ok, ok, ok, away]])  # fmt: skip
-    text = compare([row, ref], versus=(ref, "EBC"))
+    text = compare([row, ref], versus=((ref, "EBC"),))
     assert "Episode by episode on the same starts" in text
     assert "| row | EBC | stalled_at_object | 2 | 2 | 0 | 0 | 0 | 0 | 0 |" in text  # both stalls now succeed
     assert "| row | EBC | ran_away | 1 | 0 | 0 | 1 | 0 | 0 | 0 |" in text
     moved = _seeded(tmp_path, "moved", [("EBC", 0.3, 0.0, 0, 3)], sigma_init=(0.1, 0.2, 0.3), episodes=4,
                     labels=[[ok, ok, ok, away]])  # fmt: skip
-    assert "Episode by episode" not in compare([moved, ref], versus=(ref, "EBC"))  # other starts: not paired
+    assert "Episode by episode" not in compare([moved, ref], versus=((ref, "EBC"),))  # other starts: not paired
 
 
 def test_runs_of_other_noise_cells_are_not_pooled(tmp_path):
@@ -143,5 +143,25 @@ def test_runs_of_other_noise_cells_are_not_pooled(tmp_path):
     a = _seeded(tmp_path, "a", [("EBC", 0.3, 0.0, 0, 6)])
     b = _seeded(tmp_path, "b", [("EBC", 0.3, 0.0, 1, 8)])
     c = _seeded(tmp_path, "c", [("EBC", 0.3, 0.03, 1, 7)], sigma_action=(0.03,))  # another action noise
-    text = compare([a, b, c, ref], versus=(ref, "EBC"))
+    text = compare([a, b, c, ref], versus=((ref, "EBC"),))
     assert "| all 2 runs | EBC |" in text and "all 3 runs" not in text
+
+
+def test_several_references_act_as_one_row_of_all_their_cells(tmp_path):
+    from poir_mjx.eval.stats import pooled_p_value
+
+    ref0 = _seeded(tmp_path, "ref0", [("EBC", 0.3, 0.0, 0, 2)])
+    ref1 = _seeded(tmp_path, "ref1", [("EBC", 0.3, 0.0, 1, 3)])
+    a = _seeded(tmp_path, "a", [("POIR-DRIL", 0.3, 0.0, 0, 6)])
+    b = _seeded(tmp_path, "b", [("POIR-DRIL", 0.3, 0.0, 1, 8)])
+    text = compare([a, b, ref0, ref1], versus=((ref0, "EBC"), (ref1, "EBC")))
+    both = pooled_p_value([(6, 10, 2, 10), (8, 10, 3, 10)])
+    assert "Versus ref0:EBC + ref1:EBC" in text
+    assert f"| all 2 runs | POIR-DRIL | +9 (p {both:.2g}) | +9 (p {both:.2g}) |" in text
+    versus = text.split("Versus")[1]
+    assert "| a | POIR-DRIL | +4 (p " in versus and "| ref0 | EBC |" not in versus and "| ref1 | EBC |" not in versus
+    with pytest.raises(Exception, match=r"--versus: ref0:EBC and a:POIR-DRIL both have lift sigma_init 0.3 .*seed 0"):
+        compare([a, ref0], versus=((ref0, "EBC"), (a, "POIR-DRIL")))
+    out = tmp_path / "t.md"
+    assert cli.main(["compare", str(a), str(b), "--versus", f"{ref0}:EBC", f"{ref1}:EBC", "--out", str(out)]) == 0
+    assert f"| all 2 runs | POIR-DRIL | +9 (p {both:.2g})" in out.read_text()
