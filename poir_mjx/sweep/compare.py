@@ -9,9 +9,10 @@ share their episode keys, so their rows are paired comparisons.
 ``--versus RUN:METHOD`` adds a second table: every other row's successes minus that reference row's, cell by cell
 (matched by task, sigma_init and training seed; by sigma_action too where the reference has several), with the
 two-sided Fisher exact p of one seed's pair, or the Cochran-Mantel-Haenszel p over the seeds (each seed a stratum),
-and an "all cells" column over every stratum. Several ``RUN:METHOD`` references (e.g. one run per training seed) act as one
-reference row made of all their cells; two of them with the same cell are refused. A difference drawn on other starting states than the reference's (its
-episode keys differ: another seed, episode count or grid position) is marked, since it is not a paired comparison.
+and an "all cells" column over every stratum. Several ``RUN:METHOD`` references (e.g. one run per training seed)
+act as one reference row made of all their cells; two of them with the same cell are refused. A difference drawn on
+other starting states than the reference's (its episode keys differ: another seed, episode count or grid position)
+is marked, since it is not a paired comparison.
 """
 
 from __future__ import annotations
