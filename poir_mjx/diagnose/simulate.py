@@ -7,6 +7,7 @@ import dataclasses
 
 import numpy as np
 
+from poir_mjx.eval.robosuite_state import rollout_from, save
 from poir_mjx.eval.robosuite_worker import flat_obs, start_episode
 
 
@@ -51,30 +52,6 @@ def run_episode(task: str, seed: int, sigma_init: float, act, step_keys: np.ndar
         env.close()
 
 
-def save(env) -> dict:
-    """Everything a robosuite step depends on: MuJoCo's state (time, qpos, qvel, actuator activations), the solver's
-    warm start, robosuite's step counter and each gripper's command ramp (robosuite's grippers move their command
-    towards the action's sign by a fixed speed per step: state outside MuJoCo)."""
-    d = env.sim.data
-    return {"mj": np.asarray(env.sim.get_state().flatten(), np.float64).copy(), "warmstart": d.qacc_warmstart.copy(),
-            "timestep": env.timestep,
-            "grippers": [{arm: np.copy(g.current_action) for arm, g in r.gripper.items()} for r in env.robots]}
-
-
-def restore(env, state: dict) -> None:
-    """Put robosuite back in a ``save``d state; the controllers read the robot's state afresh at their next action
-    (robosuite's OSC computes its goal from the achieved pose)."""
-    env.sim.set_state_from_flattened(state["mj"])
-    env.sim.data.qacc_warmstart[:] = state["warmstart"]
-    env.sim.forward()
-    env.timestep, env.done = state["timestep"], False
-    for robot, grippers in zip(env.robots, state["grippers"]):
-        for arm, ramp in grippers.items():
-            robot.gripper[arm].current_action = np.copy(ramp)
-        for part in robot.composite_controller.part_controllers.values():
-            part.new_update = True
-
-
 class Oracle:
     """Candidate action sequences rolled out in robosuite from snapshots of one episode's environment."""
 
@@ -84,21 +61,7 @@ class Oracle:
     def rollout(self, snap: Snapshot, actions: np.ndarray) -> np.ndarray:
         """actions [N, H, da] (env units) -> observations [H + 1, N, ds] (the snapshot's first; a step that raises
         or leaves the finite range repeats the last finite observation)."""
-        n, h, _ = actions.shape
-        out = np.empty((h + 1, n, snap.obs.shape[0]), np.float32)
-        out[0] = snap.obs
-        for i in range(n):
-            restore(self.env, snap.sim_state)
-            last = snap.obs
-            for t in range(h):
-                try:
-                    o, _, _, _ = self.env.step(np.asarray(actions[i, t], np.float64))
-                    obs = flat_obs(o)
-                    last = obs if np.all(np.isfinite(obs)) else last
-                except Exception:  # MuJoCo's instability errors: keep the last state
-                    pass
-                out[t + 1, i] = last
-        return out
+        return rollout_from(self.env, snap.sim_state, snap.obs, actions, flat_obs)
 
     def close(self) -> None:
         self.env.close()

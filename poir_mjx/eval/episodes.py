@@ -7,7 +7,6 @@ import functools
 import numpy as np
 
 from poir_mjx.core.agent import POIR
-from poir_mjx.core.config import ConfigError
 from poir_mjx.envs.env import make_env, make_params
 from poir_mjx.eval import robosuite_eval
 from poir_mjx.eval.methods import Method
@@ -37,9 +36,12 @@ def run_episodes(simulator: str, task: str, method: Method, agent: POIR, params,
     stepping with the `physics` preset (robosuite: its own); {"first_success", "diverged", "steps"} as numpy arrays."""
     if simulator == "robosuite":
         if method.oracle:
-            raise ConfigError(f"simulator: {method.name} ranks by returns in the true simulator's own state, which "
-                              "only the MJX evaluator gives the policy; use simulator 'mjx'")  # fmt: skip
-        return robosuite_eval.evaluate(task, method.policy_fn(agent), params, keys, sigma_init, sigma_action, steps,
+            from poir_mjx.eval.oracle import RobosuiteOracle
+
+            policy = RobosuiteOracle(agent)
+        else:
+            policy = method.policy_fn(agent)
+        return robosuite_eval.evaluate(task, policy, params, keys, sigma_init, sigma_action, steps,
                                        workers, progress=progress, observation=observation)  # fmt: skip
     if simulator != "mjx":
         raise ValueError(f"simulator: {simulator!r} is not one of {SIMULATORS}")

@@ -34,7 +34,7 @@ class Method:
     selection: str | None = None  # planner.selection: "random" is the control without the reward's ranking; None: the
     # config's (top_k by default, or an option such as head_balanced set for the whole run)
     online: bool = False  # fine-tune the world model on deployment data before the evaluation
-    oracle: bool = False  # rank the planner's candidates by their returns in the true simulator (eval/oracle.py; MJX)
+    oracle: bool = False  # rank the planner's candidates by their returns in the true simulator (eval/oracle.py)
     description: str = ""
 
     @property
@@ -92,7 +92,7 @@ METHODS: dict[str, Method] = {
                description="control: the planner's top-k drawn uniformly among its trajectories (noise, no ranking)"),
         *(Method(f"POIR-{r.upper()} oracle", "poir", "plan", r, oracle=True,
                  description=f"control: the planner's candidates ranked by their true {r.upper()} returns, rolled out "
-                             "in the MJX environment itself (an upper bound on any ranking; MJX only)")
+                             "in the true simulator itself (an upper bound on any ranking; MJX or robosuite)")
           for r in ("l2", "dril")),  # fmt: skip
         *(Method(f"POIR-{r.upper()} online", "poir", "plan", r, online=True,
                  description=f"POIR-{r.upper()} after online world-model fine-tuning in the cell's perturbed environment")

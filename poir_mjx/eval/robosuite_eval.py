@@ -41,6 +41,9 @@ def evaluate(task: str, policy_fn, params, keys: jax.Array, sigma_init, sigma_ac
              overlap: bool | None = None, observation: str = "low_dim") -> dict[str, np.ndarray]:  # fmt: skip
     """Run len(keys) episodes of `steps` control steps in robosuite; the results of ``rollout.sharding.run_batch``.
 
+    policy_fn: (params, obs, key) -> action, compiled here as a batch; or the oracle control
+    (``eval/oracle.RobosuiteOracle``), which also rolls candidates out in the workers.
+
     keys: one PRNG key per episode (raw uint32 [B, 2]); sigma_init / sigma_action: [B]; observation: what the
     policy sees ("low_dim" or "object", ``envs/layout.OBSERVATIONS``).
     first_success counts control steps from 1, as the MJX environment does (-1: never).
@@ -78,7 +81,7 @@ def run(task, policy_fn, params, keys, sigma_init, sigma_action, steps, workers,
 
     slices = position_slices(task, observation)
     out = _Episodes(n, steps, record, OutcomeTracker(n, slices) if slices is not None else None)
-    act = batched_policy(policy_fn)
+    act = policy_fn if getattr(policy_fn, "probes", False) else _ignoring_pool(batched_policy(policy_fn))
     bar = tqdm(total=n, desc=f"robosuite {task}", unit="ep", disable=not progress)
     with RobosuitePool(task, workers, envs_per_worker, observation) as pool:
         groups = pool.groups(2 if overlap else 1)
@@ -104,6 +107,12 @@ def batched_policy(policy_fn):
     """jit(vmap(policy_fn)) over (obs, key) rows, one per policy (an agent's bound method counts as one), so
     repeated calls (an online run's rounds) are not traced and compiled again."""
     return jax.jit(jax.vmap(policy_fn, in_axes=(None, 0, 0)))
+
+
+def _ignoring_pool(act):
+    """A batched policy called as the oracle is (``eval/oracle.RobosuiteOracle``: pool, worker ids and ended
+    episodes first), which it does not need."""
+    return lambda pool, wids, settled, params, obs, keys: act(params, obs, keys)
 
 
 class _Episodes:
@@ -161,7 +170,7 @@ def _wave(pool, groups, act, params, obs, rows, real, step_keys, steps, out: _Ep
             t = t_next[g]
             if t >= steps or settled.all():
                 continue
-            a = np.asarray(act(params, jnp.asarray(obs[sl]), step_keys[rows[sl], t]))
+            a = np.asarray(act(pool, wids, settled, params, jnp.asarray(obs[sl]), step_keys[rows[sl], t]))
             pool.send_step(wids, a, settled)
             out.sent(rows[sl], ~settled, t, obs[sl], a)
             in_flight[g], t_next[g], busy = (t, ~settled), t + 1, True

@@ -72,6 +72,14 @@ class RobosuitePool:
         self._send(wids, [("step", actions[i * self.per : (i + 1) * self.per], stop[i * self.per : (i + 1) * self.per])
                           for i in range(len(wids))])  # fmt: skip
 
+    def probe(self, wids, actions: np.ndarray, skip: np.ndarray) -> np.ndarray:
+        """The oracle's rollouts: actions [slots of `wids`, N, H, da] (env units) rolled out from each running,
+        not `skip`ped environment's current state, which stays as it was; returns the observations reached
+        [slots, H, N, d] (zeros where not rolled out)."""
+        self._send(wids, [("probe", actions[i * self.per : (i + 1) * self.per], skip[i * self.per : (i + 1) * self.per])
+                          for i in range(len(wids))])  # fmt: skip
+        return self.receive(wids)[0]
+
     def step(self, actions: np.ndarray, stop: np.ndarray | None = None):
         """One control step of every running episode, after ending those flagged in `stop` [size];
         returns (obs, success, diverged) [size]."""

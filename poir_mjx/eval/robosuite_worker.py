@@ -14,6 +14,7 @@ import numpy as np
 
 from poir_mjx.data.robomimic import robosuite_obs
 from poir_mjx.envs.layout import observation_keys
+from poir_mjx.eval.robosuite_state import restore, rollout_from, save
 
 
 def flat_obs(o, observation: str = "low_dim") -> np.ndarray:
@@ -35,11 +36,14 @@ def start_episode(task: str, seed: int, sigma_init: float, observation: str = "l
 
 
 def serve(recv, send, task: str, n_envs: int, observation: str = "low_dim") -> None:
-    """A process holding `n_envs` robosuite environments; answers reset/step messages until "close".
+    """A process holding `n_envs` robosuite environments; answers reset/step/probe messages until "close".
 
-    Every reply is (obs [n_envs, d], success [n_envs], diverged [n_envs]); an environment that is
-    not stepping (diverged or unused) repeats its last observation (zeros before its first episode).
-    The first message must be a "reset" with at least one episode.
+    A reset or step is answered by (obs [n_envs, d], success [n_envs], diverged [n_envs]); an environment that
+    is not stepping (diverged or unused) repeats its last observation (zeros before its first episode). A probe
+    (the oracle control) is answered by (reached [n_envs, H, N, d],): each running environment's N candidate
+    action sequences rolled out from its current state, which is then put back as it was (the episode, its
+    action noise included, goes on as if never probed). The first message must be a "reset" with at least one
+    episode.
     """
     import logging
 
@@ -50,6 +54,9 @@ def serve(recv, send, task: str, n_envs: int, observation: str = "low_dim") -> N
         msg = recv()
         if msg[0] == "close":
             break
+        if msg[0] == "probe":  # ("probe", actions [n_envs, N, H, da] env units, skip [n_envs])
+            send((probe(envs, last, alive & ~np.asarray(msg[2], bool), msg[1], observation),))
+            continue
         success, diverged = np.zeros(n_envs, bool), np.zeros(n_envs, bool)
         if msg[0] == "reset":  # ("reset", [(seed, sigma_init, sigma_action), ...])
             alive[:] = False
@@ -79,6 +86,19 @@ def serve(recv, send, task: str, n_envs: int, observation: str = "low_dim") -> N
     for env in envs:
         if env is not None:
             env.close()
+
+
+def probe(envs, last, which: np.ndarray, actions: np.ndarray, observation: str) -> np.ndarray:
+    """The candidate sequences actions[j] [N, H, da] rolled out from environment j's current state for every j in
+    `which` (zeros elsewhere): [n_envs, H, N, d]; each environment is restored to its state afterwards."""
+    width = next(len(x) for x in last if x is not None)
+    n_envs, n, h = actions.shape[:3]
+    reached = np.zeros((n_envs, h, n, width), np.float32)
+    for j in np.flatnonzero(which):
+        state = save(envs[j])
+        reached[j] = rollout_from(envs[j], state, last[j], actions[j], lambda o: flat_obs(o, observation))[1:]
+        restore(envs[j], state)
+    return reached
 
 
 def _die_with_parent() -> None:

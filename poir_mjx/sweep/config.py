@@ -109,9 +109,6 @@ class SweepConfig:
         for m in self.methods:
             if m not in METHODS:
                 raise ConfigError(f"methods: unknown method {m!r}; expected one of {', '.join(METHODS)}")
-            if METHODS[m].oracle and self.simulator != "mjx":
-                raise ConfigError(f"methods: {m} ranks by returns in the true simulator, which only the MJX evaluator "
-                                  f"gives the policy; field 'simulator' is {self.simulator!r}")  # fmt: skip
         if self.physics != "reference" and self.simulator == "robosuite" and not any(
                 get_method(m).is_baseline or get_method(m).online for m in self.methods):  # fmt: skip
             raise ConfigError(f"physics: {self.physics!r} sets MJX's physics, and nothing in this run steps MJX "
