@@ -13,6 +13,7 @@ import tyro
 
 from poir_mjx.flags import flags_type
 from poir_mjx.core.config import PlannerConfig, POIRConfig
+from poir_mjx.core.ranking import DEFAULT_RANKING, Ranking
 from poir_mjx.envs.physics import PhysicsPresetName
 from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS, TASKS
 from poir_mjx.outputs import file_pair
@@ -80,6 +81,9 @@ class Eval:
     """robosuite worker processes."""
     out: Optional[Path] = None
     """Also write the table to this file (markdown)."""
+    ranking: Ranking = DEFAULT_RANKING
+    """How a POIR method's planner ranks its candidates: "balanced" (head-balanced selection, L2 without the
+    quaternions: the default) or "paper" (as printed); poir_mjx/core/ranking.py. --planner.* flags win."""
     planner: PlannerFlags = PlannerFlags()  # type: ignore[valid-type]
     """Planner settings replacing the checkpoint's (POIR methods only)."""
     physics: PhysicsPresetName = "reference"

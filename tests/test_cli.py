@@ -82,6 +82,20 @@ def test_eval_takes_the_planner_fields_but_not_the_ones_its_method_picks(capsys)
     assert _parse("eval", "--ckpt", "x.ckpt", "--planner.reward", "l2").startswith("unrecognised arguments")
 
 
+def test_eval_plans_with_the_balanced_ranking_unless_told_and_its_planner_flags_win():
+    from poir_mjx.cli.evaluate import planner_config
+    from poir_mjx.core.config import preset
+
+    _, opts = _parse("eval", "--ckpt", "x.ckpt")
+    assert opts.ranking == "balanced" and _parse("eval", "--ckpt", "x.ckpt", "--ranking", "paper")[1].ranking == "paper"
+    base = preset("cpu-small")
+    cfg = planner_config(base, "balanced", {}, "pick_place_can", "object")
+    assert (cfg.planner.selection, cfg.planner.l2_dims) == ("head_balanced", (0, 1, 2, 7, 8, 9))
+    assert planner_config(base, "paper", {}, "pick_place_can", "low_dim") == base
+    flagged = planner_config(base, "balanced", {"planner.selection": "top_k"}, "lift", "low_dim")
+    assert flagged.planner.selection == "top_k" and len(flagged.planner.l2_dims) == 11
+
+
 @pytest.mark.parametrize(
     "argv, match",
     [

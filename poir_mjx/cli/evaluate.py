@@ -33,12 +33,22 @@ def evaluate(opts: options.Eval) -> int:
     return 0
 
 
+def planner_config(config, ranking: str, flags: dict, task: str, observation: str):
+    """A checkpoint's config as `eval` plans with it: the `ranking`'s planner fields for the task's observation
+    (poir_mjx/core/ranking.py), then the --planner flags (which win)."""
+    from poir_mjx.core.config import apply_overrides
+    from poir_mjx.core.ranking import with_ranking
+    from poir_mjx.envs.layout import obs_groups
+
+    config = with_ranking(config, ranking, obs_groups(task, observation=observation))
+    return apply_overrides(config, flags, source="command line") if flags else config
+
+
 def table(opts: options.Eval) -> list[str]:
     import numpy as np
 
     from poir_mjx.core import checkpoint
     from poir_mjx.core.agent import POIR
-    from poir_mjx.core.config import apply_overrides
     from poir_mjx.envs.layout import OBS_KEYS, obs_groups, observation_named
     from poir_mjx.eval.episodes import SIMULATORS, agreement_p_value, run_episodes
     from poir_mjx.rollout.evaluator import episode_keys
@@ -67,12 +77,10 @@ def table(opts: options.Eval) -> list[str]:
         raise checkpoint.CheckpointError(f"{opts.ckpt}: layout field 'obs_size' does not match task {task}'s "
                                          f"{observation} observation")  # fmt: skip
     flags = dotted(opts.planner, "planner.")
-    config = agent.config
-    if flags:
-        if method.agent_kind != "poir":
-            raise ConfigError(f"--{next(iter(flags))}: method {method.name} does not plan")
-        config = apply_overrides(config, flags, source="command line")
-    agent = POIR(method.agent_config(config), agent.obs_size, agent.act_size)
+    if flags and method.agent_kind != "poir":
+        raise ConfigError(f"--{next(iter(flags))}: method {method.name} does not plan")
+    agent = POIR(method.agent_config(planner_config(agent.config, opts.ranking, flags, task, observation)),
+                 agent.obs_size, agent.act_size)  # fmt: skip
     n = opts.episodes
     grid = [(si, sa) for si in opts.sigma_init for sa in opts.sigma_action]
     si = np.repeat([g[0] for g in grid], n)
@@ -83,7 +91,7 @@ def table(opts: options.Eval) -> list[str]:
     res = {sim: run_episodes(sim, task, method, agent, params, keys, si, sa, steps, workers, True, observation,
                              opts.physics) for sim in sims}  # fmt: skip
     data = layout.get("demos", {})
-    planner = "".join(f"; {k}={v}" for k, v in flags.items())
+    planner = f"; ranking {opts.ranking}" * (method.act == "plan") + "".join(f"; {k}={v}" for k, v in flags.items())
     lines = [f"{task}, {method.name}, checkpoint {opts.ckpt}{planner}; expert data: {data.get('source', '?')} "
              f"({data.get('simulator', data.get('path', '?'))}); {n} episodes x {opts.max_steps} steps per "
              f"cell, seed {opts.seed} (the sweep's episode keys); simulator: "

@@ -84,8 +84,8 @@ class RobosuiteOracle:
     probes = True  # robosuite_eval: call with the pool, not as a policy function
 
     def __init__(self, agent: POIR):
-        self.propose = _compiled(agent, "propose")
-        self.pick = _compiled(agent, "pick")
+        self.propose = _compiled_propose(agent)
+        self.pick = _compiled_pick(agent)
 
     def __call__(self, pool, wids, settled: np.ndarray, params, obs: jax.Array, keys: jax.Array) -> jax.Array:
         actions, env_actions = self.propose(params, obs, keys)
@@ -93,11 +93,15 @@ class RobosuiteOracle:
         return self.pick(params, obs, jnp.asarray(reached), actions, keys)
 
 
-@functools.lru_cache(maxsize=16)
-def _compiled(agent: POIR, which: str):
-    """One compiled batch function per agent config ("propose": candidates; "pick": true returns -> action)."""
-    if which == "propose":
-        return jax.jit(jax.vmap(functools.partial(candidates, agent), in_axes=(None, 0, 0)))
+@functools.lru_cache(maxsize=8)
+def _compiled_propose(agent: POIR):
+    """The batch's candidates, compiled once per agent config."""
+    return jax.jit(jax.vmap(functools.partial(candidates, agent), in_axes=(None, 0, 0)))
+
+
+@functools.lru_cache(maxsize=8)
+def _compiled_pick(agent: POIR):
+    """The batch's true returns -> actions, compiled once per agent config."""
 
     def pick(params, obs, reached, actions, key):
         return choose(agent, params, returns_of_reached(agent, params, obs, reached, actions), actions, key)

@@ -11,7 +11,8 @@ from pathlib import Path
 from typing import Literal
 
 from poir_mjx.core.config import PRESETS, ConfigError, PlannerConfig, POIRConfig, apply_overrides, preset, to_dict
-from poir_mjx.envs.layout import OBSERVATIONS
+from poir_mjx.core.ranking import DEFAULT_RANKING, Ranking, quaternion_free, with_ranking
+from poir_mjx.envs.layout import OBSERVATIONS, obs_groups
 from poir_mjx.envs.physics import PhysicsPresetName, physics_preset, require_warp
 from poir_mjx.envs.tasks import DEFAULT_NUM_DEMOS, TASKS
 from poir_mjx.eval.methods import METHODS, get_method
@@ -92,6 +93,11 @@ class SweepConfig:
     for every MJX episode of the run: evaluation, online collection and baselines' training; "warp": MuJoCo Warp's
     kernels (``make venv STACK=warp``; evaluation and online collection, not the baselines or the oracle controls).
     MJX demos are recorded with the reference physics; robosuite episodes are robosuite's own."""
+    ranking: Ranking = DEFAULT_RANKING
+    """How every POIR method's planner ranks its candidates (poir_mjx/core/ranking.py): "balanced", the default
+    (head-balanced selection, L2 without the quaternion dimensions: the fixes for the head lottery and L2's geometry,
+    docs/diagnose.md), or "paper" (the k best returns, L2 over every dimension, as printed; every run published
+    before the default changed, whose recorded configs lack this field, used it). `overrides` of planner fields win."""
 
     ZERO_OK = ("seeds", "workers")
     BOUNDS = {"seeds": SEED, "episodes": (1, 10**6), "max_steps": (1, 10**6), "num_demos": (1, 10**6),
@@ -189,8 +195,23 @@ def load_sweep_config(path: str | Path, recorded: bool = False) -> SweepConfig:
 
 
 def base_config(cfg: SweepConfig) -> POIRConfig:
-    base = preset(cfg.preset)
+    """The POIR config every method of the sweep starts from: the preset, its `ranking`, then the `overrides`."""
+    base = with_ranking(preset(cfg.preset), cfg.ranking, _ranked_groups(cfg))
     return apply_overrides(base, cfg.overrides) if cfg.overrides else base
+
+
+def _ranked_groups(cfg: SweepConfig) -> tuple[str, ...]:
+    """The observation groups the ranking's L2 dimensions come from: the tasks' (one base config serves them all,
+    so their quaternion-free dimensions must agree, as they do for Lift, PickPlaceCan and NutAssemblySquare)."""
+    if cfg.ranking == "paper":
+        return ()
+    groups = {task: obs_groups(task, observation=cfg.observation) for task in cfg.tasks}
+    dims = {task: quaternion_free(g) for task, g in groups.items()}
+    if len(set(dims.values())) > 1:
+        raise ConfigError(f"ranking: {cfg.ranking!r} leaves the quaternions out of L2, and they sit at different "
+                          f"dimensions of the tasks' {cfg.observation} observations ({dims}); run the tasks apart or "
+                          "set overrides 'planner.l2_dims'")  # fmt: skip
+    return next(iter(groups.values()))
 
 
 def baseline_config(cfg: SweepConfig, method: str, source: str = "baseline_overrides"):

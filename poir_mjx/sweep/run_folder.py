@@ -23,8 +23,12 @@ RETIRED = {"epochs": '"overrides": {"train.epochs": N}'}
 
 def upgrade_recorded(config: dict) -> dict:
     """A run folder's recorded sweep config in today's fields: ``epochs`` (gone) becomes the override
-    ``train.epochs`` (0, the preset's, is dropped; an override already there wins). The POIR config, and so every
-    cell's config hash, is the same either way; a folder made before the change is not "a different config"."""
+    ``train.epochs`` (0, the preset's, is dropped; an override already there wins), and a config without
+    ``ranking`` (recorded before the field, when every run ranked as printed) gets ``"ranking": "paper"``. The POIR
+    config, and so every cell's config hash, is the same either way; a folder made before the change is not "a
+    different config"."""
+    if "ranking" not in config:
+        config = {**config, "ranking": "paper"}
     if "epochs" not in config:
         return config
     config = dict(config)

@@ -14,7 +14,7 @@ def _run(root, name, overrides, cells, demo_files=None, stale=()):
     """A run folder whose cells carry the config hash its config.json gives (those in `stale`: another one)."""
     run = root / name
     (run / "cells").mkdir(parents=True)
-    cfg = {"name": name, "overrides": overrides, "demo_files": demo_files or {}}
+    cfg = {"name": name, "ranking": "balanced", "overrides": overrides, "demo_files": demo_files or {}}
     (run / "config.json").write_text(json.dumps(cfg))
     sweep = SweepConfig(**cfg)
     for j, (method, si, k, n) in enumerate(cells):
@@ -62,7 +62,7 @@ def _seeded(root, name, cells, sigma_init=(0.02, 0.3), sigma_action=(0.0,), epis
     episode_outcomes, in order)."""
     run = root / name
     (run / "cells").mkdir(parents=True)
-    cfg = {"name": name, "sigma_init": list(sigma_init), "sigma_action": list(sigma_action), "seeds": [0, 1],
+    cfg = {"name": name, "ranking": "balanced", "sigma_init": list(sigma_init), "sigma_action": list(sigma_action), "seeds": [0, 1],
            "episodes": episodes}  # fmt: skip
     (run / "config.json").write_text(json.dumps(cfg))
     sweep = SweepConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in cfg.items()})

@@ -52,7 +52,8 @@ def test_the_scripted_demo_style_leaves_checkpoint_keys_and_cell_hashes_as_they_
     from poir_mjx.eval.methods import get_method
     from poir_mjx.sweep.artifacts import checkpoint_file
 
-    cfg = load_sweep_config(Path(__file__).resolve().parents[2] / "experiments" / "cpu-small.json")
+    made = load_sweep_config(Path(__file__).resolve().parents[2] / "experiments" / "cpu-small.json")
+    cfg = dataclasses.replace(made, ranking="paper")  # the ranking the hashes were pinned under
     assert cfg.demo_style == "scripted"
     record = ex.generator_record("lift", 200, 0, 0.02, "robosuite 1.5.2 (MuJoCo 3.3.0)")
     assert {"source": "scripted expert", **record, "sha256": "0123456789abcdef"} == PINNED_PROVENANCE
@@ -66,3 +67,7 @@ def test_the_scripted_demo_style_leaves_checkpoint_keys_and_cell_hashes_as_they_
         # human-like demos: another cell and another checkpoint, even before their content digest differs
         assert cell_hash(human, "lift", method, "0123456789abcdef") != cell
         assert checkpoint_file(m, human, "lift", 0, human_prov, tmp_path)[0].name != ckpt
+        # today's default ranking ("balanced"): the same agents, other cells
+        assert made.ranking == "balanced"
+        assert checkpoint_file(m, made, "lift", 0, PINNED_PROVENANCE, tmp_path)[0].name == ckpt
+        assert cell_hash(made, "lift", method, "0123456789abcdef") != cell

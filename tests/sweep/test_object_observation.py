@@ -1,6 +1,7 @@
 """`observation: "object"` (the paper's: robosuite's object-state vector alone) from the demos to the checkpoints, the
 cells and the commands that load a run's agent; "low_dim" (the default) keys everything as before."""
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -37,12 +38,12 @@ def demo_file(path: Path, task: str) -> Path:
 def test_default_observation_keys_checkpoints_and_cells_as_before():
     """The names and hashes main computed before the field existed (same config, same data digest); "object" gets
     its own checkpoints and cells."""
-    cfg = SweepConfig(name="t", tasks=("lift", "pick_place_can"), methods=("EBC", "POIR-DRIL"))
+    cfg = SweepConfig(name="t", tasks=("lift", "pick_place_can"), methods=("EBC", "POIR-DRIL"), ranking="paper")
     before = {("lift", "EBC"): ("policy-seed0-0b019943958395d6.ckpt", "ca16774e1f00a4f5"),
               ("lift", "POIR-DRIL"): ("poir-seed0-e9ca16a0e4bb9de7.ckpt", "cae92ce9ebf58f50"),
               ("pick_place_can", "EBC"): ("policy-seed0-effeed129abb47a3.ckpt", "ca16774e1f00a4f5"),
               ("pick_place_can", "POIR-DRIL"): ("poir-seed0-a472881079c89f13.ckpt", "cae92ce9ebf58f50")}  # fmt: skip
-    obj = SweepConfig(name="t", tasks=("lift", "pick_place_can"), methods=("EBC", "POIR-DRIL"), observation="object")
+    obj = dataclasses.replace(cfg, observation="object")
     for (task, method), (ckpt, chash) in before.items():
         path, _, layout = checkpoint_file(get_method(method), cfg, task, 0, PROV, Path("ck"))
         assert (path.name, cell_hash(cfg, task, method, PROV["sha256"])) == (ckpt, chash)

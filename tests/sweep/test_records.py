@@ -74,7 +74,7 @@ def test_an_unreadable_record_is_one_line(tmp_path, text, match):
 def test_compare_refuses_a_bad_record_naming_it(tmp_path, capsys):
     run = tmp_path / "x"
     (run / "cells" / "lift" / "EBC").mkdir(parents=True)
-    (run / "config.json").write_text(json.dumps({"name": "x", "episodes": 10, "sigma_init": [0.02, 0.2]}))
+    (run / "config.json").write_text(json.dumps({"name": "x", "episodes": 10, "sigma_init": [0.02, 0.2], "ranking": "balanced"}))
     cell = _plan(tmp_path).cell("lift", "EBC", 0.02, 0.0, 0)
     cell.path.write_text(json.dumps({**_good(cell), "successes": 30}))
     assert cli.main(["compare", str(run)]) == 2

@@ -47,14 +47,14 @@ def test_run_names_must_be_plain_folder_names(tmp_path, name):
 
 def test_a_different_config_cannot_mix_into_an_existing_run_folder(tmp_path):
     out = tmp_path / "results" / "run"
-    run_folder.prepare(out, {"episodes": 10})
+    run_folder.prepare(out, {"episodes": 10, "ranking": "balanced"})
     (out / "cells").mkdir()
     (out / "cells" / "c.json").write_text("{}")  # a cell made with it
-    run_folder.prepare(out, {"episodes": 10})  # the same config again: fine (resume)
+    run_folder.prepare(out, {"episodes": 10, "ranking": "balanced"})  # the same config again: fine (resume)
     with pytest.raises(ConfigError, match=r"config.json: this run folder was made with a different config \(fields \['episodes'\]\)"):
-        run_folder.prepare(out, {"episodes": 20})
-    run_folder.prepare(out, {"episodes": 20}, replace_config=True)
-    assert json.loads((out / "config.json").read_text()) == {"episodes": 20}
+        run_folder.prepare(out, {"episodes": 20, "ranking": "balanced"})
+    run_folder.prepare(out, {"episodes": 20, "ranking": "balanced"}, replace_config=True)
+    assert json.loads((out / "config.json").read_text()) == {"episodes": 20, "ranking": "balanced"}
 
 
 def test_an_unwritable_results_folder_is_refused_before_any_work(tmp_path, capsys):
@@ -224,7 +224,7 @@ def test_a_run_folder_recorded_with_epochs_is_migrated_and_accepted(tmp_path):
     from poir_mjx.sweep.config import SweepConfig, base_config
 
     for epochs, overrides in ((0, {}), (3, {"train.epochs": 3})):
-        cfg = SweepConfig(name=f"old{epochs}", overrides=overrides)
+        cfg = SweepConfig(name=f"old{epochs}", overrides=overrides, ranking="paper")  # the ranking of its day
         out = tmp_path / cfg.name
         (out / "cells").mkdir(parents=True)
         (out / "cells" / "c.json").write_text("{}")
@@ -239,5 +239,6 @@ def test_a_run_folder_recorded_with_epochs_is_migrated_and_accepted(tmp_path):
         if epochs:
             before = dataclasses.replace(before, train=dataclasses.replace(before.train, epochs=epochs))
         assert base_config(loaded) == before
-    assert run_folder.upgrade_recorded({"epochs": 5, "overrides": {"train.epochs": 7}}) == {"overrides": {"train.epochs": 7}}
+    assert run_folder.upgrade_recorded({"epochs": 5, "overrides": {"train.epochs": 7}}) == {
+        "overrides": {"train.epochs": 7}, "ranking": "paper"}
 
