@@ -45,7 +45,7 @@ def tiny_run(tmp_path_factory):
     root = tmp_path_factory.mktemp("run")
     demos = write_robomimic(root / "lift.hdf5", [make_demo(8, s) for s in range(3)], ENV_ARGS)
     cfg = SweepConfig(name="tiny", methods=("POIR-DRIL",), sigma_init=(0.02, 0.3), episodes=2, max_steps=4,
-                      demo_files={"lift": str(demos)},
+                      demo_files={"lift": str(demos)}, ranking="paper",  # "L2" below is then the planner's own
                       overrides={"train.epochs": 1, "train.batch_size": 8, "ensemble_size": 2,
                                  "planner.num_trajectories": 8, "planner.horizon": 2, "planner.top_k": 2})  # fmt: skip
     run_folder.prepare(root / "tiny", dataclasses.asdict(cfg))
