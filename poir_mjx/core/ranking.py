@@ -11,8 +11,8 @@ fixes, together, are "balanced":
 - ``planner.l2_dims`` = every observation dimension but the quaternions', read from the observation's layout.
 
 "paper" is the algorithm as printed (the k best returns, L2 over every dimension): the ranking of every run
-published before "balanced" became the default (2026-12-06). A sweep's ``ranking`` field and ``eval --ranking`` pick one; a ``planner.*`` override
-still wins over either.
+published before "balanced" became the default (2026-12-06). A sweep's ``ranking`` field and ``eval --ranking``
+pick one; a ``planner.*`` override still wins over either.
 """
 
 from __future__ import annotations
