@@ -22,7 +22,7 @@ from poir_mjx.core.agent import POIR
 from poir_mjx.core.scoring import step_rewards
 from poir_mjx.diagnose import call_stats as cs
 
-NO_QUATERNIONS = "no_quaternions"  # l2_dims: every observation dimension but the quaternions' (from the names)
+NO_QUATERNIONS = "no_quaternions"  # l2_dims: every observation dimension but the quaternions' (core/ranking.quaternion_free)
 
 # name -> (reward, planner fields, selection); every other ranking field at its default (the paper's planner)
 RANKINGS: dict[str, tuple[str, dict, str]] = {
@@ -40,11 +40,6 @@ RANKINGS: dict[str, tuple[str, dict, str]] = {
 }
 TRUTHS = ("l2", "dril")  # the true-simulator returns every ranking is judged by
 _RESET = {"scoring": "own_model", "selection": "top_k", "dril_units": "normalized", "l2_dims": ()}
-
-
-def no_quaternion_dims(groups: tuple[str, ...]) -> tuple[int, ...]:
-    """The observation dimensions outside every quaternion group (diagnose/names.py's groups)."""
-    return tuple(i for i, g in enumerate(groups) if not g.endswith("quat"))
 
 
 def ranking_agent(agent: POIR, name: str, no_quat: tuple[int, ...]) -> POIR:

@@ -91,12 +91,13 @@ def diagnose_episode(cfg: DiagnoseConfig, run_cfg, agent, params, j: int, episod
     """One episode of cell j (its key, its arm noise; no action noise), the planner taken apart at its snapshots."""
     from tqdm import tqdm
 
+    from poir_mjx.core.ranking import quaternion_free
     from poir_mjx.diagnose import probe, rankings
     from poir_mjx.diagnose.analyze import call_record
-    from poir_mjx.diagnose.names import observation_names
     from poir_mjx.diagnose.rankings import ranking_records
     from poir_mjx.diagnose.call_stats import real_rows
     from poir_mjx.diagnose.simulate import Oracle, run_episode
+    from poir_mjx.envs.layout import obs_groups
     from poir_mjx.eval.robosuite_eval import episode_streams
     from poir_mjx.rollout.evaluator import episode_keys
 
@@ -110,7 +111,7 @@ def diagnose_episode(cfg: DiagnoseConfig, run_cfg, agent, params, j: int, episod
                             np.asarray(step_keys[0]), steps, cfg.every, episode)  # fmt: skip
     call = probe.call_fn(agent)
     true_rewards = probe.true_rewards_fn(agent)
-    rank = rankings.scores_fn(agent, rankings.no_quaternion_dims(observation_names(cfg.task)[1]))
+    rank = rankings.scores_fn(agent, quaternion_free(obs_groups(cfg.task)))
     k, _ = agent.head_layout()
     pc = agent.config.planner
     oracle = Oracle(cfg.task, int(seeds[0]), si) if cfg.oracle else None

@@ -9,7 +9,6 @@ import pytest
 
 from poir_mjx.core.agent import POIR
 from poir_mjx.diagnose import call_stats as cs, probe, rankings
-from poir_mjx.diagnose.names import observation_names
 from tests.helpers import SMALL, expert_data
 
 NO_QUAT = (0, 1)  # the point mass has no quaternion
@@ -74,10 +73,6 @@ def test_judged_by_its_own_scores_a_ranking_gains_what_the_oracle_gains():
     best = np.sort(true["l2"])[-2:].mean() - true["l2"].mean()
     assert rec["l2"]["spearman"] == pytest.approx(1) and rec["l2"]["gain"] == pytest.approx(best)
     assert rec["dril"]["spearman"] == pytest.approx(-1) and rec["dril"]["gain"] < 0
-
-
-def test_no_quaternions_on_lift_is_the_documented_subset():
-    assert rankings.no_quaternion_dims(observation_names("lift")[1]) == (0, 1, 2, 7, 8, 9, 10, 11, 16, 17, 18)
 
 
 def test_the_gains_error_is_clustered_by_episode():
