@@ -20,6 +20,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 from poir_mjx.core import checkpoint  # noqa: E402
 from poir_mjx.core.agent import POIR  # noqa: E402
+from poir_mjx.core.selection import real_trajectories  # noqa: E402
 from poir_mjx.data.robomimic import read_transitions  # noqa: E402
 from poir_mjx.eval.methods import get_method  # noqa: E402
 from poir_mjx.sweep.config import base_config, load_sweep_config  # noqa: E402
@@ -43,12 +44,12 @@ def main() -> None:
             for j, i in enumerate(idx):
                 obs = np.array(tr.obs[i], np.float32)
                 obs[:3] += rng.normal(0, shift, 3)  # the hand's position (eef_pos), metres
-                r = np.asarray(imagine(params, jnp.asarray(obs), jax.random.PRNGKey(j)).returns)  # [K, M]
-                flat = r.T.reshape(-1)[: mc.planner.num_trajectories]  # the planner's order n (real_trajectories)
-                flat = np.where(np.isnan(flat), -np.inf, flat)
+                im = imagine(params, jnp.asarray(obs), jax.random.PRNGKey(j))
+                ret, _ = real_trajectories(im.returns, im.actions[0], mc.planner.num_trajectories)  # the order n
+                flat = np.where(np.isnan(ret), -np.inf, np.asarray(ret))
                 order = np.argsort(-flat, kind="stable")  # lax.top_k's order: ties by the lower index
                 tied += flat[order[k - 1]] == flat[order[0]]
-                one_head += len(set((order[:k] % r.shape[0]).tolist())) == 1
+                one_head += len(set((order[:k] % im.returns.shape[0]).tolist())) == 1
             print(f"{method} excess, hand moved {shift * 100:.0f} cm: top-{k} all tied in {tied}/{len(idx)} calls, "
                   f"from one head in {one_head}/{len(idx)}")
 
