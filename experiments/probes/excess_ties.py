@@ -4,10 +4,11 @@ top-k then takes (run from the repository root: ``python experiments/probes/exce
 The excess reward is -max(d - level, 0): every candidate whose disagreement stays under the expert data's own level
 scores exactly 0. The planner ranks its N trajectories in the order n = 0..N-1 (trajectory n follows head n mod K;
 ``core/selection.real_trajectories``) and ``lax.top_k`` breaks ties by the lower index, so a fully tied top-k is
-trajectories 0..k-1: with k = K, one trajectory of every head, the head-balanced average of one sample each. For 60 random states of the default Lift demos, as recorded and
-with the hand moved by N(0, 5 cm) per axis, it prints the calls whose k-th best return equals the best, and the
-calls whose top-k all come from one head. Needs `results/cpu-options-lift-excess` and the seed-0 Lift agent that run
-used (`checkpoints/lift/`, trained on this machine's data/demos/lift.hdf5).
+trajectories 0..k-1: with k = K, one trajectory of every head, the head-balanced average of one sample each. For 60
+random states of the default Lift demos, as recorded and with the hand moved by N(0, 5 cm) per axis, it prints the
+calls whose k-th best return equals the best, and the calls whose top-k all come from one head. Needs
+`results/cpu-options-lift-excess` and the seed-0 Lift agent that run used (`checkpoints/lift/`, trained on this
+machine's data/demos/lift.hdf5).
 """
 
 import sys

@@ -22,7 +22,7 @@ from poir_mjx.core.agent import POIR
 from poir_mjx.core.scoring import step_rewards
 from poir_mjx.diagnose import call_stats as cs
 
-NO_QUATERNIONS = "no_quaternions"  # l2_dims: every observation dimension but the quaternions' (core/ranking.quaternion_free)
+NO_QUATERNIONS = "no_quaternions"  # l2_dims: every dimension but the quaternions' (core/ranking.quaternion_free)
 
 # name -> (reward, planner fields, selection); every other ranking field at its default (the paper's planner)
 RANKINGS: dict[str, tuple[str, dict, str]] = {
