@@ -55,7 +55,7 @@ DEMO_STYLE ?= scripted
 # Extra flags for make demos, e.g. DEMO_ARGS='--tasks lift'.
 DEMO_ARGS ?=
 
-.PHONY: help venv envs demos expert-success diagnose test test-cpu test-current test-warp test-fast warp-parts warp-install bench-env bench-planner bench-e2e bench-robosuite bench sweep sweep-online eval xsim video ablations prior-study report wheels gpu-check gpu-carry gpu-demos clean
+.PHONY: help venv envs demos expert-success diagnose test test-cpu test-current test-warp test-fast warp-parts warp-install bench-env bench-planner bench-e2e bench-robosuite bench-l2 bench sweep sweep-online eval xsim video ablations prior-study report wheels gpu-check gpu-carry gpu-demos clean
 
 help:
 	@echo "make test       - both dependency sets: the full suite on the CPU set, the current-stack suite (CI runs this)"
@@ -70,6 +70,7 @@ help:
 	@echo "make expert-success - the expert's success rate over 100 episodes -> results/expert/"
 	@echo "make bench-env  - MJX vs robosuite control-step throughput -> results/bench/env-<STACK>.{json,md}; physics presets side by side -> physics-<STACK>.{json,md}"
 	@echo "make bench-planner - POIR planner calls/s -> results/bench/planner.{json,md}"
+	@echo "make bench-l2   - the L2 reward's nearest-expert search, full scan vs shortlist, in a run's planner -> results/bench/l2-search.{json,md}"
 	@echo "make bench-e2e  - evaluated episodes per minute, EBC and POIR-DRIL -> results/bench/e2e.{json,md}"
 	@echo "make bench-robosuite - robosuite bare stepping vs EBC / POIR-DRIL collection -> results/bench/robosuite-e2e.{json,md}"
 	@echo "make bench      - all benchmarks -> results/bench/"
@@ -149,6 +150,11 @@ bench-env: $(STAMP)
 
 bench-planner: $(STAMP)
 	$(PY) -m poir_mjx.cli bench planner --out results/bench
+
+# The L2 reward's exact search, full scan against shortlist, in a run's POIR-L2 planner (needs the run's agent).
+BENCH_L2_ARGS ?=
+bench-l2: $(STAMP)
+	$(PY) -m poir_mjx.cli bench l2 --out results/bench $(BENCH_L2_ARGS)
 
 bench-e2e: $(STAMP)
 	$(PY) -m poir_mjx.cli bench e2e --out results/bench

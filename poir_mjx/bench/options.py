@@ -195,3 +195,50 @@ class BenchPrecision:
     def outputs(self):
         return [(self.out, "folder", "--out"), (self.name, "name", "--name"), *file_pair(self.out, self.name, "--name"),
                 (self.checkpoints, "folder", "--checkpoints"), (self.data, "folder", "--data")]  # fmt: skip
+
+
+@dataclasses.dataclass(frozen=True)
+class BenchL2:
+    """The L2 reward's exact nearest-expert search, the full scan against the shortlist (PlannerConfig.l2_shortlist,
+    core/nearest.py), in a sweep run's POIR-L2 planner at the states its cells' episodes visit (robosuite) and at
+    demo states, batched as a sweep batches its episodes, side by side in one process -> <out>/<name>.{json,md}.
+    Needs robosuite."""
+
+    ZERO_OK = ("seed", "demo_states")
+    BOUNDS = {"sigma_init": NOISE, "episodes": (1, 10**4), "every": (1, 10**4), "demo_states": (0, 10**5),
+              "seed": (0, 2**31 - 1), "steps": (1, 10**5), "calls": (1, 10**4), "shortlist": (1, 10**7)}  # fmt: skip
+
+    run: Path = Path("results/cpu-options-can-combined-seed1")
+    """The sweep's run folder (its config.json names the grid, seeds and checkpoints)."""
+    task: Task = "pick_place_can"  # type: ignore[valid-type]
+    """A task of the run."""
+    method: str = "POIR-L2"
+    """A planner method of the run with the L2 reward."""
+    sigma_init: tuple[float, ...] = (0.02, 0.3)
+    """Initial arm-joint noise of the episodes whose states are taken (the run's episode keys for that level)."""
+    episodes: int = 2
+    """Episodes per noise level (the first of the run's keys at that level)."""
+    every: int = 10
+    """A state every this many control steps."""
+    steps: int = 200
+    """Control steps per episode at most (it stops at its success)."""
+    demo_states: int = 64
+    """Demo states (the first of the L2 reward's expert states) also timed."""
+    seed: int = 0
+    """A seed of the run (its agent and episode keys)."""
+    shortlist: int = 2048
+    """The shortlist timed against the full scan (l2_shortlist 0)."""
+    calls: int = 3
+    """Timed batched planner calls per state group and search."""
+    checkpoints: Path = Path("checkpoints")
+    """Where the sweep's checkpoints are."""
+    data: Path = Path("data/demos")
+    """Where the sweep's demos are (read only if an agent must be trained again)."""
+    out: Path = Path("results/bench")
+    """Output folder."""
+    name: str = "l2-search"
+    """Output file name without extension."""
+
+    def outputs(self):
+        return [(self.out, "folder", "--out"), (self.name, "name", "--name"), *file_pair(self.out, self.name, "--name"),
+                (self.checkpoints, "folder", "--checkpoints"), (self.data, "folder", "--data")]  # fmt: skip

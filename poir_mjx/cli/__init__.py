@@ -6,7 +6,7 @@
     report [--results results] [--check]                                 results/README.md from the runs (make report)
     video --run RUN --method M [--versus M2] --sigma-init S              a cell's episodes as an MP4 (make video)
     diagnose --run RUN [--method POIR-L2] [--sigma-init 0.02 0.3]       planner forensics with the oracle (make diagnose)
-    envs / demos generate|success|spread|compact / bench env|physics|planner|e2e|robosuite   the other make targets
+    envs / demos generate|success|spread|compact / bench env|physics|planner|e2e|robosuite|l2   the other make targets
 
 Each subcommand is a frozen dataclass of its options (``poir_mjx/options.py``, or the module that
 owns it) and a function taking it; tyro builds the parser from the dataclasses (``--help`` on any
@@ -42,6 +42,7 @@ COMMANDS: tuple[Command, ...] = (
     Command("bench robosuite", "poir_mjx.bench.options:BenchRobosuite", "poir_mjx.bench.robosuite:run"),
     Command("bench precision", "poir_mjx.bench.options:BenchPrecision", "poir_mjx.bench.precision:run",
             "poir_mjx.bench.precision:require_robosuite"),
+    Command("bench l2", "poir_mjx.bench.options:BenchL2", "poir_mjx.bench.l2:run", "poir_mjx.bench.l2:require_robosuite"),
     Command("gpu-check", o.GpuCheck, "poir_mjx.gpucheck.command:run"),
     Command("video", "poir_mjx.video:VideoConfig", "poir_mjx.video.command:run", "poir_mjx.video.render:check_gl"),
     Command("diagnose", "poir_mjx.diagnose.config:DiagnoseConfig", "poir_mjx.diagnose.run:run",

@@ -159,7 +159,7 @@ class POIR:
             if pc.l2_dims:  # the chosen observation dimensions only
                 dims = jnp.asarray(pc.l2_dims)
                 flat, expert = flat[:, dims], expert[:, dims]
-            return rewards.l2_reward(flat, expert, pc.l2_chunk).reshape(s.shape[:-1])
+            return rewards.l2_reward(flat, expert, pc.l2_chunk, shortlist=pc.l2_shortlist).reshape(s.shape[:-1])
         if pc.reward == "dril":
             r, level = self._dril(params, s), params.dril_level
         else:

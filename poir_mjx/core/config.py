@@ -54,6 +54,11 @@ class PlannerConfig:
     """False gives the ablation 'POIR without BC prior': candidate actions uniform in the bounds."""
     l2_chunk: int = 4096
     """Expert states per chunk in the exact nearest-neighbour search (bounds memory)."""
+    l2_shortlist: int = 2048
+    """Expert states the exact L2 search measures first: those nearest to the centre of one call's queries (the
+    imagined states of one start state), 256 at a time, until the triangle inequality certifies every query's nearest
+    state; every expert state is scanned only where it cannot (core/nearest.py). The same distances, far fewer
+    measured (make bench-l2); 0: always the full scan."""
     l2_approx_size: int = 0
     """If > 0, the L2 reward searches a fixed random subset of this many expert states (approximate)."""
     head_chunk: int = 0
@@ -108,13 +113,13 @@ class PlannerConfig:
     with float32 accumulation: tensor-core speed on a GPU, the same numbers emulated on a CPU (core/ensemble.py).
     The physics and the L2 reward's distances stay float32."""
 
-    ZERO_OK = ("l2_approx_size", "head_chunk", "scoring_lambda", "l2_dims")
+    ZERO_OK = ("l2_approx_size", "l2_shortlist", "head_chunk", "scoring_lambda", "l2_dims")
     EMPTY_OK = ("l2_dims",)
     UNIT = ("gripper_flip_prob",)
     # Fields added after cells were first recorded: left out of the config's hash while at their default, so the
     # cells and checkpoints recorded before them keep their hashes (poir_mjx/sweep/config.config_dict).
     HASH_AT_DEFAULT_OMITS = ("scoring", "scoring_lambda", "gripper_noise", "gripper_flip_prob", "dril_units", "l2_dims",
-                             "matmul")  # fmt: skip
+                             "matmul", "l2_shortlist")  # fmt: skip
 
     def cross_check(self, prefix: str) -> None:
         if self.dril_units != "normalized" and self.disagreement == "excess":

@@ -8,42 +8,18 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from poir_mjx.core import nearest
 
-def l2_reward(states: jax.Array, expert: jax.Array, chunk: int = 4096, refine: int = 8) -> jax.Array:
-    """-min_e ||s - e||_2 for every query state (exact), scanning the expert states in chunks.
 
-    states [Q, d], expert [E, d] -> [Q]. Memory is O(Q * chunk) whatever E is. Candidates come from
-    the expansion |s|^2 - 2 s.e + |e|^2 (one matmul at full float32 precision, Precision.HIGHEST; GPUs
-    default to TF32), which cancels near the data (about 2e-3 of error at distance 0 in float32); the
-    `refine` nearest candidates of each chunk are then measured directly as sum((s - e)^2), so the
-    distance is exact to float32 rounding whenever the true nearest state is among them.
+def l2_reward(states: jax.Array, expert: jax.Array, chunk: int = 4096, refine: int = 8, shortlist: int = 0) -> jax.Array:
+    """-min_e ||s - e||_2 for every query state (exact): states [Q, d], expert [E, d] -> [Q].
+
+    `shortlist` > 0 measures that many expert states nearest to the queries' centre first and scans every expert state
+    only when the triangle inequality cannot certify the answer (the same distances, far fewer measured: one planner
+    call's imagined states lie close together); 0 scans them all, `chunk` at a time (core/nearest.py).
     """
     states, expert = jnp.asarray(states, jnp.float32), jnp.asarray(expert, jnp.float32)
-    e_count = expert.shape[0]
-    chunk = min(chunk, e_count)
-    refine = min(refine, chunk)
-    n_chunks = -(-e_count // chunk)
-    pad = n_chunks * chunk - e_count
-    ex = jnp.concatenate([expert, jnp.zeros((pad, expert.shape[1]), jnp.float32)])
-    valid = jnp.arange(n_chunks * chunk) < e_count
-    ex = ex.reshape(n_chunks, chunk, -1)
-    valid = valid.reshape(n_chunks, chunk)
-    s2 = jnp.sum(states**2, -1)
-
-    def body(best, xs):
-        e, ok = xs
-        d2 = s2[:, None] - 2.0 * jnp.matmul(states, e.T, precision=jax.lax.Precision.HIGHEST) + jnp.sum(e**2, -1)[None, :]
-        d2 = jnp.where(ok[None, :], d2, jnp.inf)
-        if refine == 1:
-            near = jnp.argmin(d2, -1)[:, None]  # [Q, 1]: a reduction, cheaper than top_k on a CPU
-        else:
-            _, near = jax.lax.top_k(-d2, refine)  # [Q, refine] candidate indices
-        exact = jnp.sum((states[:, None, :] - e[near]) ** 2, -1)
-        exact = jnp.where(ok[near], exact, jnp.inf)
-        return jnp.minimum(best, exact.min(-1)), None
-
-    best, _ = jax.lax.scan(body, jnp.full(states.shape[0], jnp.inf, jnp.float32), (ex, valid))
-    return -jnp.sqrt(best)
+    return -jnp.sqrt(nearest.shortlisted(states, expert, shortlist, chunk, refine))
 
 
 def approximate_subset(expert: jax.Array, size: int, key: jax.Array) -> jax.Array:
