@@ -84,7 +84,7 @@ def search(states: jax.Array, expert: jax.Array, size: int, chunk: int = 4096, r
 
     def uncertified(best, i):  # every expert state from the i-th nearest on is at least radius[i] - d(s, centre) away
         bound = jnp.maximum(radius[i] * (1 - _SLACK) - slack, 0.0)
-        return best > bound * bound * (1 - _SLACK)
+        return ~(best <= bound * bound * (1 - _SLACK))  # a NaN anywhere (a diverged query moves the centre): scan
 
     def shortlist_open(c):
         i, best = c

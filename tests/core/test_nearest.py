@@ -61,3 +61,12 @@ def test_a_shortlist_as_large_as_the_data_is_the_scan():
 def test_expert_states_themselves_are_at_distance_zero():
     e = jnp.asarray(trajectories(np.random.default_rng(4)))
     np.testing.assert_array_equal(nearest.shortlisted(e[100:140], e, 256), 0.0)
+
+
+def test_a_diverged_query_leaves_the_others_exact():
+    """A NaN query moves the queries' centre to NaN: nothing is certified, the scan answers every query."""
+    e = jnp.asarray(trajectories(np.random.default_rng(5)))
+    q = (e[300:310] + 0.01).at[4].set(jnp.nan)
+    got, want = nearest.shortlisted(q, e, 256), nearest.scan(q, e)
+    np.testing.assert_array_equal(got, want)
+    assert np.isnan(got[4]) and np.isfinite(np.delete(np.asarray(got), 4)).all()
