@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 
 import jax
 import jax.numpy as jnp
@@ -159,7 +160,9 @@ class POIR:
             if pc.l2_dims:  # the chosen observation dimensions only
                 dims = jnp.asarray(pc.l2_dims)
                 flat, expert = flat[:, dims], expert[:, dims]
-            return rewards.l2_reward(flat, expert, pc.l2_chunk, shortlist=pc.l2_shortlist).reshape(s.shape[:-1])
+            groups = math.prod(s.shape[:-2])  # one per head (and model, under all_models scoring): they lie together
+            r = rewards.l2_reward(flat, expert, pc.l2_chunk, shortlist=pc.l2_shortlist, groups=groups)
+            return r.reshape(s.shape[:-1])
         if pc.reward == "dril":
             r, level = self._dril(params, s), params.dril_level
         else:

@@ -7,12 +7,12 @@ Two exact searches, one answer:
   chunk are then measured directly as sum((s - e)^2), so the distance is exact to float32 rounding whenever the true
   nearest state is among them.
 - ``shortlisted``: the planner's queries in one call are the imagined states of one start state, a few steps apart,
-  so their nearest expert states lie near each other. The `size` expert states nearest to the queries' centre c are
-  measured directly; by the triangle inequality every other expert state e is at least d(c, e) - d(s, c) >= b - d(s, c)
-  from a query s, where b is the distance from c to the nearest state left out. A query whose shortlisted best is
-  within that bound is certified exact; if any query of the call is not, the whole scan runs for the call (a loop of
-  zero or one trip, so under vmap it costs the scan only while some episode of the batch needs it). On a 2-core CPU
-  this is most of a POIR-L2 cell's time (``make bench-l2``, results/bench/l2-search.md).
+  and those of one head (one world model) lie together. Per group of queries, the `size` expert states nearest to the
+  group's centre c are measured, nearest first; by the triangle inequality every other expert state e is at least
+  d(c, e) - d(s, c) >= b - d(s, c) from a query s, where b is the distance from c to the nearest state not yet
+  measured, so a query whose best is within that bound is certified exact. The queries no shortlist certifies are
+  scanned against every expert state, a few at a time (under vmap, as many trips as the batch's worst call needs).
+  ``make bench-l2`` (results/bench/l2-search.md) times both in a real planner.
 """
 
 from __future__ import annotations
@@ -61,52 +61,64 @@ def scan(states: jax.Array, expert: jax.Array, chunk: int = 4096, refine: int = 
 
 
 def shortlisted(states: jax.Array, expert: jax.Array, size: int, chunk: int = 4096, refine: int = 8,
-                block: int = 256) -> jax.Array:  # fmt: skip
-    """min_e ||s - e||^2, exact (module docstring): the `size` expert states nearest to the queries' centre, `block`
-    at a time nearest first, until the triangle inequality certifies every query; the scan if the shortlist cannot."""
-    return search(states, expert, size, chunk, refine, block)[0]
+                groups: int = 1) -> jax.Array:  # fmt: skip
+    """min_e ||s - e||^2, exact (module docstring): states [Q, d] in `groups` consecutive groups of queries that lie
+    together (the planner's: one per head), each searched in its own shortlist; the queries a shortlist cannot certify
+    are scanned against every expert state."""
+    return search(states, expert, size, chunk, refine, groups)[0]
 
 
-def search(states: jax.Array, expert: jax.Array, size: int, chunk: int = 4096, refine: int = 8,
-           block: int = 256) -> tuple[jax.Array, jax.Array]:  # fmt: skip
-    """``shortlisted``'s distances [Q] and how many expert states it measured: those of the shortlist it visited,
-    plus E where it scanned them all (what make bench-l2 reports)."""
-    e_count = expert.shape[0]
-    block = max(1, min(block, size))
-    size = -(-size // block) * block if size > 0 else 0
-    if size <= 0 or size >= e_count:
-        return scan(states, expert, chunk, refine), jnp.int32(e_count)
-    q_count = states.shape[0]
+def _group_shortlist(states: jax.Array, expert: jax.Array, size: int, block: int) -> tuple[jax.Array, ...]:
+    """One group's queries [q, d] against the `size` expert states nearest to their centre, `block` at a time until
+    every query is certified: (best squared distances [q], certified [q], expert states measured)."""
     centre = jnp.mean(states, 0)
     neg, idx = jax.lax.top_k(-jnp.sqrt(jnp.sum((expert - centre) ** 2, -1)), size + 1)
     near, radius = expert[idx], -neg  # nearest first; radius[i]: the i-th nearest's distance from the centre
     slack = jnp.sqrt(jnp.sum((states - centre) ** 2, -1)) * (1 + _SLACK)
 
-    def uncertified(best, i):  # every expert state from the i-th nearest on is at least radius[i] - d(s, centre) away
+    def certified(best, i):  # every expert state from the i-th nearest on is at least radius[i] - d(s, centre) away
         bound = jnp.maximum(radius[i] * (1 - _SLACK) - slack, 0.0)
-        return ~(best <= bound * bound * (1 - _SLACK))  # a NaN anywhere (a diverged query moves the centre): scan
+        return best <= bound * bound * (1 - _SLACK)  # False for NaN (a diverged query moves the centre): scanned
 
     def shortlist_open(c):
         i, best = c
-        return (i < size) & jnp.any(uncertified(best, i))
+        return (i < size) & ~jnp.all(certified(best, i))
 
     def next_block(c):
         i, best = c
         e = jax.lax.dynamic_slice_in_dim(near, i, block, 0)
         return i + block, jnp.minimum(best, jnp.min(jnp.sum((states[:, None, :] - e[None]) ** 2, -1), -1))
 
-    init = (jnp.int32(0), jnp.full(q_count, jnp.inf, jnp.float32))
+    init = (jnp.int32(0), jnp.full(states.shape[0], jnp.inf, jnp.float32))
     visited, best = jax.lax.while_loop(shortlist_open, next_block, init)
-    # Not certified by the whole shortlist: every expert state, chunk by chunk (the loop index is the chunk, so the
-    # compiler cannot hoist the scan out of a loop that runs no trip).
-    chunk = min(chunk, e_count)
-    ex, valid = _chunks(expert, chunk)
-    trips = jnp.where(jnp.any(uncertified(best, size)), ex.shape[0], 0)
-    refine = min(refine, chunk)
+    return best, certified(best, visited), visited
 
-    def next_chunk(c):
+
+def search(states: jax.Array, expert: jax.Array, size: int, chunk: int = 4096, refine: int = 8, groups: int = 1,
+           block: int = 256, spill: int = 32) -> tuple[jax.Array, dict]:  # fmt: skip
+    """``shortlisted``'s distances [Q] and what it measured: {"shortlist": expert states measured per group (mean),
+    "scanned": queries scanned against every expert state} (what make bench-l2 reports). The uncertified queries
+    are scanned `spill` at a time (a loop of as many trips as they need: under vmap, as the batch's worst needs)."""
+    q_count, e_count = states.shape[0], expert.shape[0]
+    block = max(1, min(block, size))
+    size = -(-size // block) * block if size > 0 else 0
+    if size <= 0 or size >= e_count or q_count % groups:
+        return scan(states, expert, chunk, refine), {"shortlist": jnp.float32(0), "scanned": jnp.int32(q_count)}
+    grouped = states.reshape(groups, q_count // groups, -1)
+    best, ok, visited = jax.vmap(lambda g: _group_shortlist(g, expert, size, block))(grouped)
+    best, ok = best.reshape(-1), ok.reshape(-1)
+    # The queries no shortlist certified, `spill` at a time, against every expert state. Indices past the last one
+    # are q_count (dropped when written back); the loop index picks the queries, so nothing is hoisted out of it.
+    spill = min(spill, q_count)
+    todo = jnp.nonzero(~ok, size=q_count, fill_value=q_count)[0]
+    n_todo = jnp.sum(~ok)
+    padded = jnp.concatenate([states, jnp.zeros((1, states.shape[1]), states.dtype)])
+
+    def next_spill(c):
         j, b = c
-        return j + 1, jnp.minimum(b, _chunk_best(states, ex[j], valid[j], refine))
+        ids = jax.lax.dynamic_slice_in_dim(jnp.concatenate([todo, jnp.full(spill, q_count)]), j * spill, spill)
+        return j + 1, b.at[ids].min(scan(padded[ids], expert, chunk, refine), mode="drop")
 
-    _, best = jax.lax.while_loop(lambda c: c[0] < trips, next_chunk, (jnp.int32(0), best))
-    return best, visited + jnp.where(trips > 0, e_count, 0)
+    trips = -(-n_todo // spill)
+    _, best = jax.lax.while_loop(lambda c: c[0] < trips, next_spill, (jnp.int32(0), best))
+    return best, {"shortlist": jnp.mean(visited.astype(jnp.float32)), "scanned": n_todo}

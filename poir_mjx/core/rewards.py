@@ -11,15 +11,17 @@ import jax.numpy as jnp
 from poir_mjx.core import nearest
 
 
-def l2_reward(states: jax.Array, expert: jax.Array, chunk: int = 4096, refine: int = 8, shortlist: int = 0) -> jax.Array:
+def l2_reward(states: jax.Array, expert: jax.Array, chunk: int = 4096, refine: int = 8, shortlist: int = 0,
+              groups: int = 1) -> jax.Array:  # fmt: skip
     """-min_e ||s - e||_2 for every query state (exact): states [Q, d], expert [E, d] -> [Q].
 
-    `shortlist` > 0 measures that many expert states nearest to the queries' centre first and scans every expert state
-    only when the triangle inequality cannot certify the answer (the same distances, far fewer measured: one planner
-    call's imagined states lie close together); 0 scans them all, `chunk` at a time (core/nearest.py).
+    `shortlist` > 0 measures, for each of `groups` consecutive groups of queries, that many expert states nearest to
+    the group's centre first, and scans every expert state only for the queries the triangle inequality cannot
+    certify (the same distances, far fewer measured: one head's imagined states lie close together); 0 scans them
+    all, `chunk` at a time (core/nearest.py).
     """
     states, expert = jnp.asarray(states, jnp.float32), jnp.asarray(expert, jnp.float32)
-    return -jnp.sqrt(nearest.shortlisted(states, expert, shortlist, chunk, refine))
+    return -jnp.sqrt(nearest.shortlisted(states, expert, shortlist, chunk, refine, groups))
 
 
 def approximate_subset(expert: jax.Array, size: int, key: jax.Array) -> jax.Array:

@@ -23,17 +23,31 @@ def test_the_shortlist_certifies_clustered_queries_without_the_scan():
     for start in (0, 700, 2399):
         for spread in (0.0, 0.01, 0.03):
             q = (e[start] + rng.normal(size=(50, e.shape[1])) * spread).astype(np.float32)
-            best, measured = nearest.search(jnp.asarray(q), jnp.asarray(e), size=512, block=64)
+            best, stats = nearest.search(jnp.asarray(q), jnp.asarray(e), size=512, block=64)
             np.testing.assert_allclose(best, truth(q, e), rtol=1e-5, atol=1e-7)
-            assert int(measured) <= 512 < e.shape[0]
+            assert int(stats["scanned"]) == 0 and float(stats["shortlist"]) <= 512 < e.shape[0]
 
 
-def test_queries_the_shortlist_cannot_certify_fall_back_to_every_expert_state():
+def test_groups_far_apart_each_get_their_own_shortlist():
+    """Two heads' imagined states far apart: one shortlist around their common centre certifies nothing, one per
+    group certifies every query."""
+    rng = np.random.default_rng(6)
+    e = trajectories(rng)
+    q = np.concatenate([e[10] + rng.normal(size=(20, 6)) * 0.01, e[2000] + rng.normal(size=(20, 6)) * 0.01])
+    q = jnp.asarray(q, jnp.float32)
+    one, stats_one = nearest.search(q, jnp.asarray(e), size=32, groups=1)
+    two, stats_two = nearest.search(q, jnp.asarray(e), size=32, groups=2)
+    assert int(stats_two["scanned"]) == 0 < int(stats_one["scanned"])
+    np.testing.assert_array_equal(one, two)
+    np.testing.assert_allclose(two, truth(np.asarray(q), e), rtol=1e-5, atol=1e-7)
+
+
+def test_queries_the_shortlist_cannot_certify_are_scanned_against_every_expert_state():
     rng = np.random.default_rng(1)
     e = trajectories(rng)
     q = rng.normal(size=(30, e.shape[1])).astype(np.float32) * 3.0  # scattered far and wide: no common neighbourhood
-    best, measured = nearest.search(jnp.asarray(q), jnp.asarray(e), size=64, block=32)
-    assert int(measured) == 64 + e.shape[0]
+    best, stats = nearest.search(jnp.asarray(q), jnp.asarray(e), size=64, block=32, spill=7)
+    assert 0 < int(stats["scanned"]) <= 30
     np.testing.assert_allclose(best, truth(q, e), rtol=1e-5, atol=1e-7)
 
 
@@ -44,7 +58,7 @@ def test_the_shortlist_gives_the_scans_distances_under_vmap():
     starts = e[jnp.asarray([3, 500, 1300, 901])]
     spread = jnp.asarray([0.0, 0.02, 2.0, 0.05])[:, None, None]
     q = starts[:, None, :] + spread * jax.random.normal(jax.random.PRNGKey(0), (4, 40, e.shape[1]))
-    got = jax.jit(jax.vmap(lambda x: nearest.shortlisted(x, e, 300, chunk=256, block=100)))(q)
+    got = jax.jit(jax.vmap(lambda x: nearest.search(x, e, 300, chunk=256, groups=2, block=100, spill=8)[0]))(q)
     want = jax.vmap(lambda x: nearest.scan(x, e, 256))(q)
     np.testing.assert_array_equal(got, want)
 
@@ -53,8 +67,8 @@ def test_a_shortlist_as_large_as_the_data_is_the_scan():
     rng = np.random.default_rng(3)
     e, q = jnp.asarray(trajectories(rng, demos=3, steps=10)), jnp.asarray(rng.normal(size=(7, 6)), jnp.float32)
     for size in (0, 30, 4096):
-        best, measured = nearest.search(q, e, size)
-        assert int(measured) == 30
+        best, stats = nearest.search(q, e, size)
+        assert int(stats["scanned"]) == 7
         np.testing.assert_array_equal(best, nearest.scan(q, e))
 
 
