@@ -55,10 +55,10 @@ class PlannerConfig:
     l2_chunk: int = 4096
     """Expert states per chunk in the exact nearest-neighbour search (bounds memory)."""
     l2_shortlist: int = 2048
-    """Expert states the exact L2 search measures first: those nearest to the centre of one call's queries (the
-    imagined states of one start state), 256 at a time, until the triangle inequality certifies every query's nearest
-    state; every expert state is scanned only where it cannot (core/nearest.py). The same distances, far fewer
-    measured (make bench-l2); 0: always the full scan."""
+    """Expert states the exact L2 search measures first, per head: those nearest to the centre of the head's imagined
+    states at a step, 256 at a time, until the triangle inequality certifies each query's nearest state; the queries
+    it cannot certify are scanned against every expert state (core/nearest.py). The same distances to float32
+    rounding, far fewer measured (make bench-l2); 0: always the full scan."""
     l2_approx_size: int = 0
     """If > 0, the L2 reward searches a fixed random subset of this many expert states (approximate)."""
     head_chunk: int = 0
