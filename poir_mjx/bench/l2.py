@@ -20,7 +20,7 @@ import numpy as np
 
 from poir_mjx.atomic import atomic_write_text
 from poir_mjx.bench.options import BenchL2
-from poir_mjx.bench.precision import require_robosuite as _require, states
+from poir_mjx.bench.precision import require_robosuite as _require, run_config, states
 from poir_mjx.core import nearest
 from poir_mjx.core.agent import POIR
 from poir_mjx.core.config import ConfigError
@@ -120,14 +120,8 @@ def to_markdown(res: dict) -> str:
 
 def run(opts: BenchL2) -> int:
     from poir_mjx.sweep.artifacts import load_run_agent
-    from poir_mjx.sweep.config import load_sweep_config
 
-    src = opts.run / "config.json"
-    if not src.is_file():
-        raise ConfigError(f"{src}: no such file; expected a sweep run folder (results/<name>/)")
-    run_cfg = load_sweep_config(src, recorded=True)
-    if opts.task not in run_cfg.tasks:
-        raise ConfigError(f"--task: {opts.task!r} is not a task of {src} (field 'tasks' {list(run_cfg.tasks)})")
+    run_cfg = run_config(opts)
     agent, params, m = load_run_agent(opts.run, opts.task, opts.method, opts.seed, opts.data, opts.checkpoints)
     if m.act != "plan" or agent.config.planner.reward != "l2":
         raise ConfigError(f"--method: {opts.method} does not plan with the L2 reward")

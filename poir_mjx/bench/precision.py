@@ -127,8 +127,8 @@ def _demos(d: dict) -> str:
     return f"{what} ({d.get('simulator', 'file')}, sha256 {d.get('sha256', '?')})"
 
 
-def run(opts: BenchPrecision) -> int:
-    from poir_mjx.sweep.artifacts import demos_for, load_run_agent
+def run_config(opts):
+    """The sweep run folder's recorded config (opts.run), checked against --task: what a bench on a run's agent reads."""
     from poir_mjx.sweep.config import load_sweep_config
 
     src = opts.run / "config.json"
@@ -137,6 +137,13 @@ def run(opts: BenchPrecision) -> int:
     run_cfg = load_sweep_config(src, recorded=True)
     if opts.task not in run_cfg.tasks:
         raise ConfigError(f"--task: {opts.task!r} is not a task of {src} (field 'tasks' {list(run_cfg.tasks)})")
+    return run_cfg
+
+
+def run(opts: BenchPrecision) -> int:
+    from poir_mjx.sweep.artifacts import demos_for, load_run_agent
+
+    run_cfg = run_config(opts)
     res = {"run": str(opts.run), "task": opts.task, "seed": opts.seed, "command": command_line(),
            "machine": machine_line(), "stack": stack(), "simulator": simulator_line("robosuite"),
            "demos": demos_for(run_cfg, opts.task, opts.data, progress=False)[1], "methods": {}}  # fmt: skip
