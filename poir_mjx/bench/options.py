@@ -154,10 +154,9 @@ class BenchRobosuite:
 
 
 @dataclasses.dataclass(frozen=True)
-class BenchPrecision:
-    """The planner's decisions under each reduced matmul setting (PlannerConfig.matmul) against true float32, on a
-    sweep run's agents: at the states its cells' episodes visit (robosuite, driven by the float32 planner) and at
-    its demos' states, with the same keys -> <out>/<name>.{json,md}. Needs robosuite."""
+class RunStates:
+    """What a bench on a sweep run's agent reads (bench precision, bench l2): the run, a task and seed of it, the
+    states its cells' episodes visit in robosuite and demo states."""
 
     ZERO_OK = ("seed", "demo_states")
     BOUNDS = {"sigma_init": NOISE, "episodes": (1, 10**4), "every": (1, 10**4), "demo_states": (0, 10**5),
@@ -167,10 +166,6 @@ class BenchPrecision:
     """The sweep's run folder (its config.json names the grid, seeds and checkpoints)."""
     task: Task = "lift"  # type: ignore[valid-type]
     """A task of the run."""
-    methods: tuple[str, ...] = ("POIR-DRIL", "POIR-MOREL")
-    """Planner methods of the run (their agent: the run's checkpoint for the task and seed)."""
-    matmul: tuple[Literal["tf32", "bfloat16"], ...] = ("tf32", "bfloat16")
-    """Matmul settings compared with "float32"."""
     sigma_init: tuple[float, ...] = (0.02, 0.3)
     """Initial arm-joint noise of the episodes whose states are taken (the run's episode keys for that level)."""
     episodes: int = 2
@@ -180,7 +175,7 @@ class BenchPrecision:
     steps: int = 200
     """Control steps per episode at most (it stops at its success)."""
     demo_states: int = 64
-    """Demo states (from the L2 reward's expert subset) also compared."""
+    """Demo states (the first of the L2 reward's expert states) also measured."""
     seed: int = 0
     """A seed of the run (its agents and episode keys)."""
     checkpoints: Path = Path("checkpoints")
@@ -189,8 +184,6 @@ class BenchPrecision:
     """Where the sweep's demos are (read only if an agent must be trained again)."""
     out: Path = Path("results/bench")
     """Output folder."""
-    name: str = "precision-cpu"
-    """Output file name without extension."""
 
     def outputs(self):
         return [(self.out, "folder", "--out"), (self.name, "name", "--name"), *file_pair(self.out, self.name, "--name"),
@@ -198,15 +191,27 @@ class BenchPrecision:
 
 
 @dataclasses.dataclass(frozen=True)
-class BenchL2:
+class BenchPrecision(RunStates):
+    """The planner's decisions under each reduced matmul setting (PlannerConfig.matmul) against true float32, on a
+    sweep run's agents: at the states its cells' episodes visit (robosuite, driven by the float32 planner) and at
+    its demos' states, with the same keys -> <out>/<name>.{json,md}. Needs robosuite."""
+
+    methods: tuple[str, ...] = ("POIR-DRIL", "POIR-MOREL")
+    """Planner methods of the run (their agent: the run's checkpoint for the task and seed)."""
+    matmul: tuple[Literal["tf32", "bfloat16"], ...] = ("tf32", "bfloat16")
+    """Matmul settings compared with "float32"."""
+    name: str = "precision-cpu"
+    """Output file name without extension."""
+
+
+@dataclasses.dataclass(frozen=True)
+class BenchL2(RunStates):
     """The L2 reward's exact nearest-expert search, the full scan against the shortlist (PlannerConfig.l2_shortlist,
     core/nearest.py), in a sweep run's POIR-L2 planner at the states its cells' episodes visit (robosuite) and at
     demo states, batched as a sweep batches its episodes, side by side in one process -> <out>/<name>.{json,md}.
     Needs robosuite."""
 
-    ZERO_OK = ("seed", "demo_states")
-    BOUNDS = {"sigma_init": NOISE, "episodes": (1, 10**4), "every": (1, 10**4), "demo_states": (0, 10**5),
-              "seed": (0, 2**31 - 1), "steps": (1, 10**5), "calls": (1, 10**4), "shortlist": (1, 10**7)}  # fmt: skip
+    BOUNDS = {**RunStates.BOUNDS, "calls": (1, 10**4), "shortlist": (1, 10**7)}
 
     run: Path = Path("results/cpu-options-can-combined-seed1")
     """The sweep's run folder (its config.json names the grid, seeds and checkpoints)."""
@@ -214,31 +219,9 @@ class BenchL2:
     """A task of the run."""
     method: str = "POIR-L2"
     """A planner method of the run with the L2 reward."""
-    sigma_init: tuple[float, ...] = (0.02, 0.3)
-    """Initial arm-joint noise of the episodes whose states are taken (the run's episode keys for that level)."""
-    episodes: int = 2
-    """Episodes per noise level (the first of the run's keys at that level)."""
-    every: int = 10
-    """A state every this many control steps."""
-    steps: int = 200
-    """Control steps per episode at most (it stops at its success)."""
-    demo_states: int = 64
-    """Demo states (the first of the L2 reward's expert states) also timed."""
-    seed: int = 0
-    """A seed of the run (its agent and episode keys)."""
     shortlist: int = 2048
     """The shortlist timed against the full scan (l2_shortlist 0)."""
     calls: int = 3
     """Timed batched planner calls per state group and search."""
-    checkpoints: Path = Path("checkpoints")
-    """Where the sweep's checkpoints are."""
-    data: Path = Path("data/demos")
-    """Where the sweep's demos are (read only if an agent must be trained again)."""
-    out: Path = Path("results/bench")
-    """Output folder."""
     name: str = "l2-search"
     """Output file name without extension."""
-
-    def outputs(self):
-        return [(self.out, "folder", "--out"), (self.name, "name", "--name"), *file_pair(self.out, self.name, "--name"),
-                (self.checkpoints, "folder", "--checkpoints"), (self.data, "folder", "--data")]  # fmt: skip
