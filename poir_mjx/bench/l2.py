@@ -10,8 +10,8 @@ for every imagined step of every call, how many expert states the shortlist meas
 
 from __future__ import annotations
 
-import dataclasses
 import json
+import math
 import time
 
 import jax
@@ -20,7 +20,7 @@ import numpy as np
 
 from poir_mjx.atomic import atomic_write_text
 from poir_mjx.bench.options import BenchL2
-from poir_mjx.bench.precision import require_robosuite as _require, run_config, states
+from poir_mjx.bench.precision import require_robosuite as _require, run_config, states, with_planner
 from poir_mjx.core import nearest
 from poir_mjx.core.agent import POIR
 from poir_mjx.core.config import ConfigError
@@ -32,8 +32,7 @@ def require_robosuite() -> None:
 
 
 def with_shortlist(agent: POIR, shortlist: int) -> POIR:
-    planner = dataclasses.replace(agent.config.planner, l2_shortlist=shortlist)
-    return POIR(dataclasses.replace(agent.config, planner=planner), agent.obs_size, agent.act_size)
+    return with_planner(agent, l2_shortlist=shortlist)
 
 
 def timed(fn, calls: int) -> tuple[float, float, np.ndarray]:
@@ -77,12 +76,12 @@ def compare(opts: BenchL2, agent: POIR, params, groups) -> list[dict]:
     plans = {n: jax.jit(jax.vmap(a.plan, in_axes=(None, 0, 0))) for n, a in (("scan", full), ("shortlist", short))}
     count = measured_fn(agent, opts.shortlist)
     e_count = int(params.expert_states.shape[0])
+    queries = math.prod(agent.head_layout())  # imagined states per step of one call (padding cells included)
     rows = []
     for group, (obs, keys) in groups.items():
         obs, keys = jnp.asarray(obs, jnp.float32), jnp.asarray(keys, jnp.uint32)
         res = {n: timed(lambda f=f: f(params, obs, keys), opts.calls) for n, f in plans.items()}
         shortlisted, scanned = (np.asarray(x) for x in count(params, obs, keys))  # [S, H] each
-        queries = agent.head_layout()[0] * agent.head_layout()[1]
         rows.append({"group": group, "states": int(obs.shape[0]), "expert_states": e_count,
                      "scan_s": res["scan"][1], "shortlist_s": res["shortlist"][1],
                      "scan_first_s": res["scan"][0], "shortlist_first_s": res["shortlist"][0],

@@ -30,9 +30,14 @@ def require_robosuite() -> None:
     require("bench precision (the states come from robosuite episodes)")
 
 
-def with_matmul(agent: POIR, matmul: str) -> POIR:
-    return POIR(dataclasses.replace(agent.config, planner=dataclasses.replace(agent.config.planner, matmul=matmul)),
+def with_planner(agent: POIR, **fields) -> POIR:
+    """The agent with these planner fields replaced (everything else the same)."""
+    return POIR(dataclasses.replace(agent.config, planner=dataclasses.replace(agent.config.planner, **fields)),
                 agent.obs_size, agent.act_size)  # fmt: skip
+
+
+def with_matmul(agent: POIR, matmul: str) -> POIR:
+    return with_planner(agent, matmul=matmul)
 
 
 def decide_fn(agent: POIR):
