@@ -164,7 +164,7 @@ def _versus(versus: tuple[tuple[Path, str], ...], rows: list, cols: list, strata
     head = f"| run | method | {' | '.join(labels)} | all cells |"
     lines = ["", f"Versus {ref_name}: difference in successes, two-sided Fisher exact p (one seed) or "
              "Cochran-Mantel-Haenszel p over the training seeds; all cells: over every (cell, seed) both have; all runs: "
-             "a method's rows of several runs with the same overrides and noise cells (one per training seed) together.", "",
+             "a method's rows of several runs with the same overrides and action noise, each of other training seeds, together.", "",
              head, "|---|---|" + "---|" * (len(cols) + 1)]  # fmt: skip
     def cells(entries: list) -> tuple[list[str], bool]:
         out, every, unpaired = [], [], False
@@ -191,12 +191,13 @@ def _versus(versus: tuple[tuple[Path, str], ...], rows: list, cols: list, strata
     for name, method in others:
         out, mark = cells(strata[(name, method)])
         unpaired |= mark
-        # pooled only with runs of the same overrides and noise cells (e.g. one run per training seed)
-        same = (method, overrides_of[name], frozenset(key[:3] for key, *_ in strata[(name, method)]))
+        # pooled only with runs of the same overrides and action noise (sigma_init grids may differ), one per seed
+        same = (method, overrides_of[name], frozenset((key[0], key[2]) for key, *_ in strata[(name, method)]))
         runs_of.setdefault(same, []).append(name)
         lines.append(f"| {name} | {method} | " + " | ".join(out) + " |")
     for (method, _, _), names in runs_of.items():  # a method in several such runs: every stratum
-        if len(names) > 1:
+        seeds = [{key[3] for key, *_ in strata[(name, method)]} for name in names]
+        if len(names) > 1 and len(set().union(*seeds)) == sum(map(len, seeds)):  # no training seed twice
             out, _ = cells([e for name in names for e in strata[(name, method)]])
             lines.append(f"| all {len(names)} runs | {method} | " + " | ".join(out) + " |")
     lines += _transitions(others, strata, match, ref_name)

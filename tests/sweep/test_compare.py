@@ -147,6 +147,19 @@ def test_runs_of_other_noise_cells_are_not_pooled(tmp_path):
     assert "| all 2 runs | EBC |" in text and "all 3 runs" not in text
 
 
+def test_runs_of_other_sigma_init_grids_are_pooled_but_never_one_seed_twice(tmp_path):
+    from poir_mjx.eval.stats import pooled_p_value
+
+    ref = _seeded(tmp_path, "ref", [("EBC", 0.02, 0.0, 0, 2), ("EBC", 0.02, 0.0, 1, 3), ("EBC", 0.3, 0.0, 1, 1)])
+    a = _seeded(tmp_path, "a", [("POIR-DRIL", 0.02, 0.0, 0, 6)])  # seed 0: one cell
+    b = _seeded(tmp_path, "b", [("POIR-DRIL", 0.02, 0.0, 1, 8), ("POIR-DRIL", 0.3, 0.0, 1, 4)])  # seed 1: two
+    text = compare([a, b, ref], versus=((ref, "EBC"),))
+    every = pooled_p_value([(6, 10, 2, 10), (8, 10, 3, 10), (4, 10, 1, 10)])
+    assert f"| all 2 runs | POIR-DRIL | +9 (p " in text and f"| +12 (p {every:.2g}) |" in text
+    again = _seeded(tmp_path, "again", [("POIR-DRIL", 0.02, 0.0, 1, 7)])  # seed 1 again: not pooled with b
+    assert "all 2 runs" not in compare([b, again, ref], versus=((ref, "EBC"),))
+
+
 def test_several_references_act_as_one_row_of_all_their_cells(tmp_path):
     from poir_mjx.eval.stats import pooled_p_value
 
