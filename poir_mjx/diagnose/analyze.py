@@ -24,7 +24,8 @@ def call_record(call: dict, k: int, n: int, top_k: int, true_returns: dict | Non
                   "between_head_share": cs.between_head_share(ret, heads), "return_std": float(np.std(ret))}  # fmt: skip
         if true_returns is not None:
             tr = np.asarray(true_returns[r], np.float64)
-            rec[r].update(spearman=cs.spearman(ret, tr), top_k_overlap=cs.top_k_overlap(ret, tr, top_k),
+            rec[r].update(spearman=cs.spearman(ret, tr), spearman_within_head=cs.within_head_spearman(ret, tr, heads),
+                          top_k_overlap=cs.top_k_overlap(ret, tr, top_k),
                           true_between_head_share=cs.between_head_share(tr, heads),
                           true_return_std=float(np.std(tr)),
                           # how much better the model's top-k is than a random k, in true return

@@ -52,6 +52,15 @@ def spearman(x: np.ndarray, y: np.ndarray) -> float:
     return float(np.sum(rx * ry) / den) if den > 0 else float("nan")
 
 
+def within_head_spearman(x: np.ndarray, y: np.ndarray, heads: np.ndarray) -> float:
+    """The mean over heads of Spearman between x and y among one head's trajectories: does the ranking order the
+    noise within a head (what head-balanced selection relies on), whatever it says about which head. NaN when no
+    head's correlation is defined."""
+    rho = [spearman(np.asarray(x)[heads == h], np.asarray(y)[heads == h]) for h in np.unique(heads)]
+    rho = [r for r in rho if np.isfinite(r)]
+    return float(np.mean(rho)) if rho else float("nan")
+
+
 def top_k_overlap(a: np.ndarray, b: np.ndarray, k: int) -> float:
     """|top-k of a ∩ top-k of b| / k."""
     return len(set(top_k_indices(a, k).tolist()) & set(top_k_indices(b, k).tolist())) / k

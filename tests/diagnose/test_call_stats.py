@@ -37,6 +37,18 @@ def test_spearman_matches_scipy_with_ties():
     assert np.isnan(cs.spearman(np.ones(5), y[:5]))
 
 
+def test_within_head_spearman_ignores_which_head():
+    heads = cs.real_heads(3, 60)
+    rng = np.random.default_rng(0)
+    noise = rng.normal(size=60)
+    model = 10.0 * heads + noise  # the head decides the overall order
+    same_noise = -10.0 * heads + noise  # the true returns order the heads the other way, the noise the same way
+    assert cs.spearman(model, same_noise) < -0.5 and cs.within_head_spearman(model, same_noise, heads) == pytest.approx(1)
+    other_noise = 10.0 * heads + rng.normal(size=60)  # right about the heads, blind within them
+    assert cs.spearman(model, other_noise) > 0.8 and abs(cs.within_head_spearman(model, other_noise, heads)) < 0.4
+    assert np.isnan(cs.within_head_spearman(np.ones(6), noise[:6], cs.real_heads(3, 6)))
+
+
 def test_max_pair_difference_and_dimension_shares():
     # three members in 2-D: the most distant pair is (0, 2), differing only in the second dimension
     x = np.array([[[0.0, 0.0]], [[0.0, 1.0]], [[0.0, 3.0]]])
