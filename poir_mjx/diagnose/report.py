@@ -111,7 +111,8 @@ def render(task: str, summary: dict) -> str:
     if any(s["oracle"] for s in summary.values()):
         lines += ["", "## Oracle: the same candidates in the true simulator", "",
                   "Spearman: rank correlation of the world model's returns with the true ones (robosuite, same "
-                  "actions, same start); within a head: among one head's trajectories, averaged over the heads. Overlap: |model top-k ∩ true top-k| / k (chance: k/N). Gain: the true "
+                  "actions, same start); within a head: among one head's trajectories, averaged over the heads. "
+                  "Overlap: |model top-k ∩ true top-k| / k (chance: k/N). Gain: the true "
                   "return of the model's top-k (and of the true top-k) above the candidates' mean: what ranking by "
                   "the model buys, against what any ranking could.", ""]  # fmt: skip
         rows = []
