@@ -56,7 +56,8 @@ def within_head_spearman(x: np.ndarray, y: np.ndarray, heads: np.ndarray) -> flo
     """The mean over heads of Spearman between x and y among one head's trajectories: does the ranking order the
     noise within a head (what head-balanced selection relies on), whatever it says about which head. NaN when no
     head's correlation is defined."""
-    rho = [spearman(np.asarray(x)[heads == h], np.asarray(y)[heads == h]) for h in np.unique(heads)]
+    x, y = np.asarray(x), np.asarray(y)
+    rho = [spearman(x[heads == h], y[heads == h]) for h in np.unique(heads)]
     rho = [r for r in rho if np.isfinite(r)]
     return float(np.mean(rho)) if rho else float("nan")
 
