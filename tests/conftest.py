@@ -65,16 +65,41 @@ def _peak_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
+# (worker id, its peak MB, its _FOLDER_MEMORY), one per pytest-xdist worker (`make test-cpu` runs two)
+_WORKER_MEMORY: list[tuple[str, float, list]] = []
+
+
+def pytest_sessionfinish(session):
+    """In a pytest-xdist worker: hand its memory record to the controller, which prints the summary."""
+    out = getattr(session.config, "workeroutput", None)
+    if out is not None:
+        out["poir_memory"] = {"peak_mb": _peak_mb(), "folders": _FOLDER_MEMORY}
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node, error):
+    """In pytest-xdist's controller: keep each worker's memory record as it ends."""
+    rec = getattr(node, "workeroutput", {}).get("poir_memory")
+    if rec:
+        _WORKER_MEMORY.append((node.gateway.id, rec["peak_mb"], [tuple(row) for row in rec["folders"]]))
+
+
 def pytest_terminal_summary(terminalreporter):
-    """The suite's peak memory and the folders that raised it, so a regression of issue 43's class 9 shows in CI."""
-    if not _FOLDER_MEMORY:
-        return
+    """The suite's peak memory and the folders that raised it (per worker under pytest-xdist), so a regression of
+    issue 43's class 9 shows in CI."""
+    records = sorted(_WORKER_MEMORY)
+    if not records and _FOLDER_MEMORY:
+        records = [("this pytest process", _peak_mb(), _FOLDER_MEMORY)]
+    for who, peak_mb, folders in records:
+        _memory_summary(terminalreporter.write_line, who, peak_mb, folders)
+
+
+def _memory_summary(write, who: str, peak_mb: float, folders: list) -> None:
     rows, last_peak = [], 0.0
-    for folder, end, after, peak in _FOLDER_MEMORY:
+    for folder, end, after, peak in folders:
         rows.append((peak - last_peak, folder, end, after, peak))
         last_peak = max(last_peak, peak)
-    write = terminalreporter.write_line
-    write(f"peak resident memory of this pytest process: {_peak_mb() / 1024:.1f} GB; folders that raised it:")
+    write(f"peak resident memory of {who}: {peak_mb / 1024:.1f} GB; folders that raised it:")
     for raised, folder, end, after, peak in sorted(rows, reverse=True)[:6]:
         if raised > 0:
             write(f"  {folder}: peak +{raised:.0f} MB to {peak:.0f} MB; resident {end:.0f} MB at its end, "
