@@ -111,7 +111,7 @@ test:
 # The CPU set's suite runs in TEST_WORKERS pytest-xdist processes (a test file stays in one, so its module fixtures
 # and compiled programs are shared): one pytest process keeps one core busy (compiling XLA programs most of its time),
 # so two use a 2-core machine's second. Each holds its own programs: with a cold compilation cache the worker running
-# tests/envs peaked at 12.3 GB and the other at 6.9 GB (docs/reliability.md, class 9); TEST_WORKERS=1 halves that.
+# tests/envs peaked at 12.3 GB and the other at 6.9 GB (docs/reliability.md, class 9); TEST_WORKERS=1 runs one process.
 TEST_WORKERS ?= 2
 test-cpu:
 	$(MAKE) STACK=cpu venv

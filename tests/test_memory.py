@@ -20,3 +20,17 @@ def test_a_new_test_folder_starts_without_the_last_folders_compiled_programs():
     assert fn.cache_info().currsize >= 1
     conftest.pytest_runtest_teardown(here, SimpleNamespace(path=Path(__file__).parent / "core" / "test_x.py"))
     assert fn.cache_info().currsize == 0
+
+
+def test_each_xdist_workers_memory_is_summarised_by_the_controller(monkeypatch):
+    rows = [("tests/envs", 900.0, 100.0, 1000.0)]
+    worker = SimpleNamespace(config=SimpleNamespace(workeroutput={}))
+    monkeypatch.setattr(conftest, "_FOLDER_MEMORY", rows)
+    conftest.pytest_sessionfinish(worker)  # in the worker: its record goes into workeroutput
+    node = SimpleNamespace(gateway=SimpleNamespace(id="gw1"), workeroutput=worker.config.workeroutput)
+    monkeypatch.setattr(conftest, "_WORKER_MEMORY", [])
+    conftest.pytest_testnodedown(node, None)  # in the controller
+    lines = []
+    conftest.pytest_terminal_summary(SimpleNamespace(write_line=lines.append))
+    assert lines[0].startswith("peak resident memory of gw1:")
+    assert lines[1].startswith("  tests/envs: peak +1000 MB")
