@@ -110,14 +110,15 @@ test:
 
 # The CPU set's suite runs in TEST_WORKERS pytest-xdist processes (a test file stays in one, so its module fixtures
 # and compiled programs are shared): one pytest process keeps one core busy (compiling XLA programs most of its time),
-# so two use a 2-core machine's second. Each holds its own programs: with a cold compilation cache the worker running
+# so two use a 2-core machine's second. The longest files start first (tests/conftest.py, LONGEST_FIRST; xdist's own
+# reorder, by test count, is off) so the two finish together. Each holds its own programs: with a cold compilation cache the worker running
 # tests/envs peaked at 12.3 GB and the other at 6.9 GB (docs/reliability.md, class 9); TEST_WORKERS=1 runs one process.
 TEST_WORKERS ?= 2
 test-cpu:
 	$(MAKE) STACK=cpu venv
 	.venv/bin/python -m poir_mjx.cli envs --out envs --check
 	JAX_COMPILATION_CACHE_DIR=$(CACHE_HOME)/jax-cpu .venv/bin/python -m pytest -q --durations=15 \
-	  -n $(TEST_WORKERS) --dist loadfile tests
+	  -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder tests
 
 # The current set (the GPU machine's jax) has no robosuite; on a CPU its MJX is slow (a PickPlaceCan step takes
 # about 15 s at batch 2). It runs what only it can show: the GPU check's dry run (every stage of the prepared GPU

@@ -34,3 +34,28 @@ def test_each_xdist_workers_memory_is_summarised_by_the_controller(monkeypatch):
     conftest.pytest_terminal_summary(SimpleNamespace(write_line=lines.append))
     assert lines[0].startswith("peak resident memory of gw1:")
     assert lines[1].startswith("  tests/envs: peak +1000 MB")
+
+
+def test_the_longest_files_run_first_and_exist(pytestconfig):
+    """`make test-cpu` hands files to its two workers in collection order: the long ones must come first."""
+    root = Path(__file__).parent.parent
+    assert all((root / path).is_file() for path in conftest.LONGEST_FIRST)
+    items = [SimpleNamespace(path=root / p, keywords={}) for p in
+             ["tests/test_memory.py", conftest.LONGEST_FIRST[1], "tests/core/test_prior.py", conftest.LONGEST_FIRST[0]]]
+    conftest.pytest_collection_modifyitems(pytestconfig, items)
+    assert [conftest._suite_path(i) for i in items] == [*conftest.LONGEST_FIRST[:2], "tests/test_memory.py",
+                                                         "tests/core/test_prior.py"]  # fmt: skip
+
+
+def test_compile_time_is_charged_to_the_running_test_file(monkeypatch):
+    monkeypatch.setattr(conftest, "_COMPILE", {})
+    conftest.pytest_runtest_setup(SimpleNamespace(path=Path(__file__)))
+    conftest._record_compile(conftest._BACKEND_COMPILE, 3.0, fun_name="step")
+    conftest._record_compile(conftest._BACKEND_COMPILE, 0.5, fun_name="step")  # a cache hit's read...
+    conftest._record_compile(conftest._CACHE_SAVED, 90.0)  # ...and the compile time it saved
+    conftest._record_compile("/jax/core/compile/jaxpr_trace_duration", 7.0)  # not a compilation
+    assert conftest._COMPILE == {"tests/test_memory.py": [3.5, 90.0, 2, 1]}
+    lines = []
+    conftest._compile_summary(lines.append, conftest._COMPILE)
+    assert lines[0].startswith("XLA compilation, 1.6 min with an empty cache (0.1 min spent here")
+    assert lines[1] == "  tests/test_memory.py: 94 s (1 programs compiled in 4 s, 1 read from the cache)"

@@ -33,7 +33,7 @@ def test_object_observation_is_the_object_state_alone(task):
 def test_mjx_and_robosuite_give_the_same_object_observation_for_the_same_state(task):
     """robosuite's reset state put into MJX: the MJX environment's policy vector (env.obs_vector) and the robosuite
     worker's (flat_obs) agree, for the object-state alone and for the low-dim set it ends. Only the reset is compiled
-    (about 20 s per task on the 2-core CPU with a warm cache); tests/envs/test_env.py's fidelity replay compares the
+    (about 20 s per task on the 2-core CPU with a warm cache); the per-task fidelity replays (test_lift.py ...) compare the
     object-state over 90 steps."""
     from poir_mjx.envs.reference import qpos_from_robosuite
     from poir_mjx.envs.tasks import make_robosuite
