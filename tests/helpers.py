@@ -314,3 +314,22 @@ def assert_batch_rollout(task):
         bottom = np.asarray(state.data.xpos[:, env._idx["obj_body"], 2]) - half_z
         assert v[0] != v[1] and half_z[0] != half_z[1]
         np.testing.assert_allclose(bottom, env.meta["success"]["table_height"], atol=2e-3)  # resting on the table
+
+
+def task_tests(task, physics_presets):
+    """The MJX tests every task has (tests/envs/test_<task>.py binds them to its own names): the fidelity replay
+    under each of `physics_presets` (None: the reference) and the float32 batch rollout."""
+    import pytest
+
+    @pytest.mark.slow
+    @pytest.mark.needs_robosuite
+    @pytest.mark.parametrize("physics", physics_presets)
+    def test_fidelity_against_robosuite(physics):
+        assert_fidelity(task, physics)
+
+    @pytest.mark.slow
+    @pytest.mark.current_stack
+    def test_float32_batch_rollout_is_finite_with_right_shapes():
+        assert_batch_rollout(task)
+
+    return test_fidelity_against_robosuite, test_float32_batch_rollout_is_finite_with_right_shapes

@@ -2,21 +2,8 @@
 physics and "fast"), and a float32 batch rollout. One file per task, so the suite's two pytest-xdist workers share
 the tasks out; a file's tests share its compiled programs (tests/helpers.py: ``replay``)."""
 
-import pytest
+from tests.helpers import task_tests
 
-from tests.helpers import assert_batch_rollout, assert_fidelity
-
-TASK = "lift"
-
-
-@pytest.mark.slow
-@pytest.mark.needs_robosuite
-@pytest.mark.parametrize("physics", [None, "fast"])
-def test_fidelity_against_robosuite(physics):
-    assert_fidelity(TASK, physics)
-
-
-@pytest.mark.slow
-@pytest.mark.current_stack
-def test_float32_batch_rollout_is_finite_with_right_shapes():
-    assert_batch_rollout(TASK)
+test_fidelity_against_robosuite, test_float32_batch_rollout_is_finite_with_right_shapes = task_tests(
+    "lift", [None, "fast"]
+)
