@@ -111,8 +111,8 @@ test:
 # The CPU set's suite runs in TEST_WORKERS pytest-xdist processes (a test file stays in one, so its module fixtures
 # and compiled programs are shared): one pytest process keeps one core busy (compiling XLA programs most of its time),
 # so two use a 2-core machine's second. The longest files start first (tests/conftest.py, LONGEST_FIRST; xdist's own
-# reorder, by test count, is off) so the two finish together. Each holds its own programs: with a cold compilation cache the worker running
-# tests/envs peaked at 12.3 GB and the other at 6.9 GB (docs/reliability.md, class 9); TEST_WORKERS=1 runs one process.
+# reorder, by test count, is off) so the two finish together. Each holds its own programs: with a cold compilation
+# cache the workers peaked at 9.0 and 8.6 GB (docs/reliability.md, class 9); TEST_WORKERS=1 runs one process.
 TEST_WORKERS ?= 2
 test-cpu:
 	$(MAKE) STACK=cpu venv
