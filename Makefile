@@ -55,7 +55,7 @@ DEMO_STYLE ?= scripted
 # Extra flags for make demos, e.g. DEMO_ARGS='--tasks lift'.
 DEMO_ARGS ?=
 
-.PHONY: help venv envs demos expert-success diagnose test test-cpu test-current test-warp test-fast warp-parts warp-install bench-env bench-planner bench-e2e bench-robosuite bench-l2 bench sweep sweep-online eval xsim video ablations prior-study report wheels gpu-check gpu-carry gpu-demos clean
+.PHONY: help venv venv-current venv-warp envs demos expert-success diagnose test test-cpu test-current test-current-check test-current-core test-warp test-fast warp-parts warp-install bench-env bench-planner bench-e2e bench-robosuite bench-l2 bench sweep sweep-online eval xsim video ablations prior-study report wheels gpu-check gpu-carry gpu-demos clean
 
 help:
 	@echo "make test       - both dependency sets: the full suite on the CPU set, the current-stack suite (CI runs this)"
@@ -102,11 +102,11 @@ demos: $(STAMP)
 expert-success: $(STAMP)
 	$(PY) -m poir_mjx.cli demos success --simulator robosuite --episodes 100
 
-# CI (.ci/run) runs exactly this: both dependency sets, one after the other, then MuJoCo Warp's tests.
+# CI (.ci/run) runs exactly this: the CPU set's suite (both cores), then the current set's two pytest processes and
+# MuJoCo Warp's tests, two at a time (each keeps one core busy; --output-sync keeps each one's output in one piece).
 test:
 	$(MAKE) test-cpu
-	$(MAKE) test-current
-	$(MAKE) test-warp
+	$(MAKE) -j2 --output-sync=target test-current test-warp
 
 # The CPU set's suite runs in TEST_WORKERS pytest-xdist processes (a test file stays in one, so its module fixtures
 # and compiled programs are shared): one pytest process keeps one core busy (compiling XLA programs most of its time),
@@ -125,22 +125,25 @@ test-cpu:
 # run: Lift's MJX reset and step, the planner, MJX demos, training, the e2e evaluation and a tiny sweep) and the
 # POIR core, rollout and online tests; the CPU set runs every test. One pytest process per group, so one jax CPU
 # crash names its test (-v, no faulthandler dump burying it) and state does not pile up.
-CURRENT_GROUPS := "-m current_stack tests/test_gpu_check.py" \
-                  "-m 'not slow' tests/core tests/rollout tests/online tests/test_layers.py"
-test-current:
+# One target per group: `make -j2 test-current` runs them side by side; the venv is made once, before either.
+test-current: test-current-check test-current-core
+test-current-check: PYTEST_ARGS = -m current_stack tests/test_gpu_check.py
+test-current-core: PYTEST_ARGS = -m 'not slow' tests/core tests/rollout tests/online tests/test_layers.py
+test-current-check test-current-core: venv-current
+	JAX_ENABLE_COMPILATION_CACHE=false .venv-current/bin/python -m pytest -v -p no:faulthandler --durations=10 \
+	  $(PYTEST_ARGS)
+
+venv-current:
 	$(MAKE) STACK=current venv
-	@for group in $(CURRENT_GROUPS); do \
-	  echo "== test-current: pytest $$group"; \
-	  eval JAX_ENABLE_COMPILATION_CACHE=false .venv-current/bin/python -m pytest -v -p no:faulthandler \
-	    --durations=10 $$group || exit 1; \
-	done
 
 # MuJoCo Warp (physics "warp") on the CPU: Warp compiles its CPU kernels once per machine (about a minute, cached in
 # ~/.cache/warp), then the Lift tests step it against MJX's JAX pipeline at batch 2-3 (tests/envs/test_warp.py).
-test-warp:
-	$(MAKE) STACK=warp venv
+test-warp: venv-warp
 	JAX_ENABLE_COMPILATION_CACHE=false .venv-warp/bin/python -m pytest -v -p no:faulthandler --durations=5 \
 	  -m "needs_warp or not slow" tests/envs/test_warp.py tests/envs/test_physics.py tests/sweep/test_config_and_stats.py
+
+venv-warp:
+	$(MAKE) STACK=warp venv
 
 test-fast: $(STAMP)
 	$(PY) -m pytest -q -m "not slow" tests

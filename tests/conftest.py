@@ -92,10 +92,10 @@ def pytest_runtest_setup(item):
 
 
 def pytest_runtest_teardown(item, nextitem):
-    """Between test folders, drop the compiled programs the last folder kept alive: the project's lru-cached
-    builders (compiled evaluators, environments, recorders) and jax's own caches. A folder's tests share their
-    programs; the next folder's rarely do, and JAX's persistent compilation cache makes a recompile a disk read.
-    Without this the CPU suite's process grew to 14 GB resident (issue 43)."""
+    """Between test folders, drop the compiled programs the last folder kept alive: the project's memoised
+    builders (poir_mjx.cached: compiled evaluators, environments, recorders) and jax's own caches. A folder's tests
+    share their programs; the next folder's rarely do, and JAX's persistent compilation cache makes a recompile a
+    disk read. Without this the CPU suite's process grew to 14 GB resident (issue 43)."""
     if nextitem is not None and Path(nextitem.path).parent == Path(item.path).parent:
         return
     before = _resident_mb()
@@ -199,6 +199,7 @@ def _memory_summary(write, who: str, peak_mb: float, folders: list) -> None:
 def _drop_compiled_programs() -> None:
     import functools
     import gc
+    import inspect
 
     import jax
 
@@ -206,7 +207,8 @@ def _drop_compiled_programs() -> None:
         if not name.startswith("poir_mjx"):
             continue
         for value in list(vars(module).values()):
-            if isinstance(value, functools._lru_cache_wrapper):
+            builder = inspect.isfunction(value) and hasattr(value, "cache_clear")  # poir_mjx.cached.builder
+            if builder or isinstance(value, functools._lru_cache_wrapper):
                 value.cache_clear()
     jax.clear_caches()
     gc.collect()

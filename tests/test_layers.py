@@ -10,7 +10,7 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "poir_mjx"
 # Low to high: a module may import from its own layer's packages and from the layers below.
 LAYERS = (
-    {"quiet", "atomic", "compat", "optional", "devices", "versions", "checkpoint_codec", "run_state", "flags",
+    {"quiet", "atomic", "cached", "compat", "optional", "devices", "versions", "checkpoint_codec", "run_state", "flags",
      "typed_config", "outputs", "folder_lock"},
     {"envs", "core"},
     {"rollout", "options"},

@@ -13,7 +13,7 @@ from tests.helpers import SMALL
 
 def test_a_new_test_folder_starts_without_the_last_folders_compiled_programs():
     fn = probe.one_step_error_fn
-    fn(POIR(dataclasses.replace(SMALL, ensemble_size=2), 2, 2))  # an lru-cached builder holding a jitted function
+    fn(POIR(dataclasses.replace(SMALL, ensemble_size=2), 2, 2))  # a memoised builder holding a jitted function
     assert fn.cache_info().currsize >= 1
     here = SimpleNamespace(path=Path(__file__))
     conftest.pytest_runtest_teardown(here, SimpleNamespace(path=Path(__file__)))  # same folder next: kept

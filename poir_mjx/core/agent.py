@@ -24,6 +24,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from poir_mjx.cached import builder
 from poir_mjx.core import ensemble as ens
 from poir_mjx.core import rewards
 from poir_mjx.core import candidates
@@ -240,7 +241,7 @@ class POIR:
         return sel.select(pc.selection, ret, first, key, pc.num_trajectories, pc.top_k)
 
 
-@functools.lru_cache(maxsize=32)
+@builder(maxsize=32)
 def _disagreement_fn(agent: POIR, reward: str):
     """jit((params, x) -> disagreement per row), one per agent config and reward: fits share its compilation.
     x is the normalised state (DRIL) or [state, action] (MOREL)."""

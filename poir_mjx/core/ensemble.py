@@ -15,6 +15,7 @@ import jax
 import jax.numpy as jnp
 import optax
 
+from poir_mjx.cached import builder
 from poir_mjx.core.config import MLPConfig, TrainConfig
 
 ACTIVATIONS = {"relu": nn.relu, "tanh": nn.tanh, "gelu": nn.gelu}
@@ -102,7 +103,7 @@ class TrainState(NamedTuple):
     opt_state: Any
 
 
-@functools.lru_cache(maxsize=None)
+@builder
 def make_optimizer(cfg: TrainConfig) -> optax.GradientTransformation:
     """Adam for `cfg`; one object per config, so ``train_epoch`` (static in it) compiles once per shape."""
     return optax.adam(cfg.learning_rate, b1=cfg.beta1, b2=cfg.beta2)

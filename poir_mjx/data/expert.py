@@ -16,7 +16,6 @@ fixed function of the observation; ``expert_human.py`` adds an operator's variab
 from __future__ import annotations
 
 import dataclasses
-import functools
 
 import jax
 import jax.numpy as jnp
@@ -24,6 +23,7 @@ import mujoco
 import numpy as np
 from flax import struct
 
+from poir_mjx.cached import builder
 from poir_mjx.envs.rotation import quat_xyzw_to_mat
 from poir_mjx.envs.tasks import grasp_offset
 
@@ -76,7 +76,7 @@ def _wrap(angle, period):
     return (angle + period / 2) % period - period / 2
 
 
-@functools.lru_cache(maxsize=None)
+@builder
 def expert_task(task: str, envs_dir: str | None = None) -> ExpertTask:
     """Task constants read from the exported model (finger axis, handle offset, targets)."""
     from poir_mjx.envs.model import load_model

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import functools
 import time
 
 import jax
 import numpy as np
 
+from poir_mjx.cached import builder
 from poir_mjx.data import expert as ex
 from poir_mjx.data.expert_human import expert_fns, expert_steps
 from poir_mjx.data.robomimic import LOW_DIM_KEYS, Demo, robosuite_obs
@@ -21,7 +21,7 @@ def episode_steps(task: str, style: str = "scripted") -> int:
     return expert_steps(EXPERT_STEPS[task], style, HORIZON)
 
 
-@functools.lru_cache(maxsize=None)
+@builder
 def _jit_expert(task: str, style: str = "scripted"):
     init, act = expert_fns(ex.expert_task(task), style)
     return jax.jit(init), jax.jit(act)

@@ -9,7 +9,6 @@ saying MJX. ``states`` rows are [time, qpos, qvel] of the exported model (``mode
 
 from __future__ import annotations
 
-import functools
 import json
 import time
 from pathlib import Path
@@ -18,6 +17,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from poir_mjx.cached import builder
 from poir_mjx.data import expert as ex
 from poir_mjx.data.robomimic import ENV_NAMES, LOW_DIM_KEYS, Demo, write_robomimic
 from poir_mjx.data.expert_episodes import episode_steps
@@ -63,7 +63,7 @@ def expert_policy(task: str, style: str = "scripted") -> Policy:
     return Policy(act=lambda _, e, state, k: act(state.obs, e), init=lambda _, k: init(k))
 
 
-@functools.lru_cache(maxsize=None)
+@builder
 def expert_rollout(task: str, steps: int, style: str = "scripted", physics: str = "reference"):
     """jit(vmap(episode)): (unused params, keys [B], EnvParams [B]) -> (outcomes [B], per-step records [B, T, ...]),
     the MJX physics a preset of ``envs.physics`` (the demos: "reference")."""

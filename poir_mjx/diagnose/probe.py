@@ -8,11 +8,10 @@ each reward would have ranked the same trajectories, in the world model (``call`
 
 from __future__ import annotations
 
-import functools
-
 import jax
 import jax.numpy as jnp
 
+from poir_mjx.cached import builder
 from poir_mjx.core import ensemble as ens
 from poir_mjx.core.agent import POIR, POIRParams
 from poir_mjx.core.config import REWARDS
@@ -38,7 +37,7 @@ def nearest_expert(states: jax.Array, expert: jax.Array, chunk: int = 4096) -> j
     return near
 
 
-@functools.lru_cache(maxsize=8)
+@builder(maxsize=8)
 def call_fn(agent: POIR):
     """jit((params, obs, key) -> dict): one planner call of `agent` (its own reward and selection) taken apart.
 
@@ -73,14 +72,14 @@ def _returns(agent: POIR, reward: str, params: POIRParams, imag) -> jax.Array:
     return jnp.where(real, step_rewards(agent, reward, params, imag.states, imag.actions).sum(0), -jnp.inf)
 
 
-@functools.lru_cache(maxsize=8)
+@builder(maxsize=8)
 def plan_fn(agent: POIR):
     """jit(agent.plan), one per agent config: every diagnosed episode drives with the same compiled planner (a new
     ``jax.jit(agent.plan)`` per episode would trace and compile it again)."""
     return jax.jit(agent.plan)
 
 
-@functools.lru_cache(maxsize=8)
+@builder(maxsize=8)
 def true_rewards_fn(agent: POIR):
     """jit((params, obs [H + 1, N, ds] raw, actions [H, N, da] normalised) -> {reward: [H, N]}): each reward of the
     states the true simulator reached."""
@@ -92,7 +91,7 @@ def true_rewards_fn(agent: POIR):
     return jax.jit(fn)
 
 
-@functools.lru_cache(maxsize=8)
+@builder(maxsize=8)
 def one_step_error_fn(agent: POIR):
     """jit((params, obs [Q, ds], act [Q, da], next_obs [Q, ds], all raw) -> [ds]): the world model's one-step squared
     error per normalised dimension, averaged over its heads and the rows (the prediction as the planner makes it)."""

@@ -11,12 +11,12 @@ and are measured by their grid only.
 from __future__ import annotations
 
 import dataclasses
-import functools
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from poir_mjx.cached import builder
 from poir_mjx.core import candidates, selection as sel
 from poir_mjx.core.agent import POIR
 from poir_mjx.core.scoring import step_rewards
@@ -52,7 +52,7 @@ def ranking_agent(agent: POIR, name: str, no_quat: tuple[int, ...]) -> POIR:
     return POIR(dataclasses.replace(agent.config, planner=pc), agent.obs_size, agent.act_size)
 
 
-@functools.lru_cache(maxsize=8)
+@builder(maxsize=8)
 def scores_fn(agent: POIR, no_quat: tuple[int, ...]):
     """jit((params, states [H + 1, K, M, ds], actions [H, K, M, da]) -> {name: [K, M]}): each ranking's score of
     the imagined candidates (``POIR.imagine``'s states and actions; -inf on padding)."""

@@ -22,6 +22,7 @@ import numpy as np
 from flax import struct
 from mujoco import mjx
 
+from poir_mjx.cached import builder
 from poir_mjx.compat import x64_enabled
 from poir_mjx.envs import osc, warp
 from poir_mjx.envs import observation
@@ -281,12 +282,12 @@ def make_env(task: str, envs_dir: str | None = None, observation: str = "low_dim
     return env if observation == "low_dim" else _observed(env, observation)
 
 
-@functools.lru_cache(maxsize=None)
+@builder
 def _observed(env: TaskEnv, observation: str) -> TaskEnv:
     return dataclasses.replace(env, observation=observation)
 
 
-@functools.lru_cache(maxsize=None)
+@builder
 def _make_env(task: str, envs_dir: str | None, x64: bool, physics: PhysicsConfig = REFERENCE) -> TaskEnv:
     check_task(task)
     mj_model, meta = load_model(task, envs_dir, physics)
@@ -295,7 +296,7 @@ def _make_env(task: str, envs_dir: str | None, x64: bool, physics: PhysicsConfig
     return TaskEnv(task=task, mj_model=mj_model, model=model, meta=meta, variants=variants, physics=physics)
 
 
-@functools.lru_cache(maxsize=None)
+@builder
 def _sized(env: TaskEnv, worlds: int) -> TaskEnv:
     return dataclasses.replace(env, worlds=worlds)
 
@@ -305,7 +306,7 @@ def batched(task: str, envs_dir: str | None = None, physics: PhysicsConfig | str
     return _batched(task, envs_dir, x64_enabled(), as_physics(physics))
 
 
-@functools.lru_cache(maxsize=None)
+@builder
 def _batched(task: str, envs_dir: str | None, x64: bool, physics: PhysicsConfig = REFERENCE):
     env = _make_env(task, envs_dir, x64, physics)
 

@@ -12,16 +12,15 @@ Three things differ from MJX's JAX pipeline, and the environment handles each he
 
 from __future__ import annotations
 
-import functools
-
 import jax
 import jax.numpy as jnp
 import mujoco
 import numpy as np
 from mujoco import mjx
+from poir_mjx.cached import builder
 
 
-@functools.lru_cache(maxsize=None)
+@builder
 def jax_sizes(mj_model: mujoco.MjModel) -> tuple[int, int]:
     """(constraint rows, contacts) of one world as MJX's JAX pipeline allocates them: every candidate pair's."""
     d = jax.eval_shape(lambda: mjx.make_data(mj_model))
@@ -35,7 +34,7 @@ def make_data(mj_model: mujoco.MjModel, worlds: int, contacts: int = 0) -> mjx.D
     return jax.tree_util.tree_map(lambda x: x, _allocated(mj_model, worlds, contacts))
 
 
-@functools.lru_cache(maxsize=None)
+@builder
 def _allocated(mj_model: mujoco.MjModel, worlds: int, contacts: int) -> mjx.Data:
     """Made eagerly even when first asked for inside a trace (reset's), so the cache holds arrays, not tracers."""
     njmax, ncon = jax_sizes(mj_model)

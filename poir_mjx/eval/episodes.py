@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
+from poir_mjx.cached import builder
 from poir_mjx.core.agent import POIR
 from poir_mjx.envs.env import make_env, make_params
 from poir_mjx.eval import robosuite_eval
@@ -16,7 +15,7 @@ from poir_mjx.rollout.sharding import run_batch
 SIMULATORS = ("mjx", "robosuite")
 
 
-@functools.lru_cache(maxsize=None)
+@builder
 def mjx_evaluator(task: str, method: Method, agent: POIR, steps: int, observation: str = "low_dim",
                   physics: str = "reference"):  # fmt: skip
     """One compiled MJX evaluator per (task, method, agent config, steps, observation, physics preset), reused across

@@ -18,6 +18,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from poir_mjx.cached import builder
 from poir_mjx.core import selection as sel
 from poir_mjx.core.agent import POIR
 from poir_mjx.core.scoring import step_rewards
@@ -93,13 +94,13 @@ class RobosuiteOracle:
         return self.pick(params, obs, jnp.asarray(reached), actions, keys)
 
 
-@functools.lru_cache(maxsize=8)
+@builder(maxsize=8)
 def _compiled_propose(agent: POIR):
     """The batch's candidates, compiled once per agent config."""
     return jax.jit(jax.vmap(functools.partial(candidates, agent), in_axes=(None, 0, 0)))
 
 
-@functools.lru_cache(maxsize=8)
+@builder(maxsize=8)
 def _compiled_pick(agent: POIR):
     """The batch's true returns -> actions, compiled once per agent config."""
 

@@ -16,13 +16,13 @@ stepping once it succeeds (the success is counted) or its physics stops being fi
 
 from __future__ import annotations
 
-import functools
 import os
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from poir_mjx.cached import builder
 from poir_mjx.eval.robosuite_pool import RobosuitePool
 
 __all__ = ["RobosuitePool", "episode_streams", "evaluate", "collect", "run"]
@@ -102,7 +102,7 @@ def run(task, policy_fn, params, keys, sigma_init, sigma_action, steps, workers,
     return result, out.transitions()
 
 
-@functools.lru_cache(maxsize=16)
+@builder(maxsize=16)
 def batched_policy(policy_fn):
     """jit(vmap(policy_fn)) over (obs, key) rows, one per policy (an agent's bound method counts as one), so
     repeated calls (an online run's rounds) are not traced and compiled again."""

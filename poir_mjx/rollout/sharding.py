@@ -5,15 +5,14 @@ One CPU device works unchanged; on several GPUs the same call spreads the batch 
 
 from __future__ import annotations
 
-import functools
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
+from poir_mjx.cached import builder
 
 
-@functools.lru_cache(maxsize=None)
+@builder
 def episode_mesh() -> Mesh:
     return Mesh(np.array(jax.devices()), ("episodes",))
 

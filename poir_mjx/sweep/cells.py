@@ -5,7 +5,6 @@ records atomically."""
 from __future__ import annotations
 
 import dataclasses
-import functools
 import json
 import time
 from pathlib import Path
@@ -15,6 +14,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from poir_mjx.cached import builder
 from poir_mjx.atomic import atomic_write_text
 from poir_mjx.core.agent import POIR
 from poir_mjx.core.config import to_dict
@@ -178,7 +178,7 @@ def _cell_slug(b: CellBatch, j: int) -> str:
     return f"si={si:g}_sa={sa:g}_seed={b.seed}"
 
 
-@functools.lru_cache(maxsize=None)
+@builder
 def _online_trainer(task: str, agent: POIR, steps: int, collect_in: str, evaluate_in: str, workers: int,
                     observation: str, physics: str):  # fmt: skip
     from poir_mjx.online.loop import OnlineTrainer

@@ -9,11 +9,10 @@ recorded qpos is drawn as is. Lift's cube is compiled at the episode's size vari
 
 from __future__ import annotations
 
-import functools
-
 import mujoco
 import numpy as np
 
+from poir_mjx.cached import builder
 from poir_mjx.envs.env import load_model
 from poir_mjx.envs.tasks import task_files
 from poir_mjx.envs.variants import NUM_VARIANTS, variant_sizes
@@ -93,7 +92,7 @@ def decorate(spec: mujoco.MjSpec) -> mujoco.MjSpec:
     return spec
 
 
-@functools.lru_cache(maxsize=None)
+@builder
 def scene_model(task: str, variant: int = 0) -> mujoco.MjModel:
     """The task's model for pictures, with object-size variant `variant` (``info["variant"]``; Lift only)."""
     files = task_files(task)

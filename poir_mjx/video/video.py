@@ -11,7 +11,6 @@ key, same cube size). Heavy imports (mujoco, the agents) happen on the first cal
 from __future__ import annotations
 
 import contextlib
-import functools
 import math
 import sys
 from pathlib import Path
@@ -19,6 +18,7 @@ from typing import Iterator
 
 import numpy as np
 
+from poir_mjx.cached import builder
 from poir_mjx.core.config import ConfigError
 from poir_mjx.video.config import SOURCE, VideoConfig, check, default_out
 
@@ -46,7 +46,7 @@ def cell_episodes(run_cfg, src: Path, cfg: VideoConfig):
     return keys, make_params(np.full(len(cfg.episodes), si), np.full(len(cfg.episodes), sa))
 
 
-@functools.lru_cache(maxsize=None)
+@builder
 def _recorder(task: str, method, agent, steps: int, x64: bool, observation: str):
     """One compiled recording rollout per (task, method, agent config, steps, precision, the run's observation)."""
     from poir_mjx.envs.env import make_env

@@ -185,6 +185,23 @@ def test_physics_preset_keys_the_cells_and_reaches_every_mjx_episode(tmp_path, m
     assert seen == ["fast"]
 
 
+def test_the_e2e_bench_and_a_sweep_cell_share_one_compiled_evaluator(monkeypatch):
+    """bench e2e asks for the evaluator with the defaults left out, a sweep cell with them written: one build, so the
+    GPU check's cell and sweep stages reuse the e2e stage's programs (they compiled them again, 3 minutes each)."""
+    from poir_mjx.eval import episodes
+    from poir_mjx.eval.methods import get_method
+
+    built = []
+    monkeypatch.setattr(episodes, "make_env", lambda task, observation, physics: built.append(physics))
+    monkeypatch.setattr(episodes, "make_evaluator", lambda env, policy, steps: object())
+    episodes.mjx_evaluator.cache_clear()
+    method = get_method("EBC")
+    e2e = episodes.mjx_evaluator("lift", method, None, 4)  # poir_mjx/bench/e2e.py
+    assert episodes.mjx_evaluator("lift", method, None, 4, "low_dim", "reference") is e2e  # sweep/cells.py's call
+    assert episodes.mjx_evaluator("lift", method, None, 4, physics="fast") is not e2e and built == ["reference", "fast"]
+    episodes.mjx_evaluator.cache_clear()
+
+
 def test_warp_physics_in_a_sweep_is_refused_where_it_cannot_run(tmp_path):
     """physics "warp": one line naming the field where MuJoCo Warp is missing; where it is installed, refused for the
     methods whose environments its batch-shared contact buffers do not fit (baselines, the oracle controls)."""
