@@ -34,7 +34,7 @@ def summarize(recs: list[dict], task: str) -> dict:
                "plan_ebc_distance": _mean(c["plan_ebc_distance"] for c in calls),
                "gripper_sign_differs_from_ebc": _mean(c["gripper"]["sign_differs_from_ebc"] for c in calls),
                "gripper_at_bound": _mean(c["gripper"]["at_bound"] for c in calls),
-               "provenance": first.get("provenance")}  # fmt: skip
+               "provenance": [r["provenance"] for r in recs if r.get("provenance")]}  # fmt: skip
     for r in REWARDS:
         x = [c[r] for c in calls]
         s[r] = {"between_head_share": _mean(v["between_head_share"] for v in x),
@@ -80,6 +80,24 @@ def write_page(out: Path, task: str) -> Path:
     return page
 
 
+def provenance_line(summary: dict) -> str:
+    """Where the records came from: each field's distinct values over every record of every cell, in order (cells
+    diagnosed by several commands, or on several machines, name all of them)."""
+    provs = [p for s in summary.values() for p in s["provenance"]]
+    if not provs:
+        return ""
+
+    def values(f) -> str:
+        return "; ".join(dict.fromkeys(f(p) for p in provs))
+
+    def demos(p) -> str:
+        return f"{p['demos'].get('source')} (sha256 {p['demos'].get('sha256')})"
+
+    commands = list(dict.fromkeys(f"`{p['command']}`" for p in provs))
+    return (f"Simulator: {values(lambda p: p['simulator'])}; machine: {values(lambda p: p['machine'])}; "
+            f"demos: {values(demos)}; command{'s' if len(commands) > 1 else ''}: {'; '.join(commands)}.")
+
+
 def render(task: str, summary: dict) -> str:
     lines = [f"# Planner forensics: {task}", "",
              "Written by `python -m poir_mjx.cli diagnose` from the episode records beside this page: each cell's "
@@ -88,11 +106,8 @@ def render(task: str, summary: dict) -> str:
     if not summary:
         return "\n".join(lines + ["No diagnosed cells yet.", ""])
     cols = list(summary)
-    prov = [s.get("provenance") for s in summary.values() if s.get("provenance")]
-    if prov:
-        p = prov[0]
-        lines += [f"Simulator: {p['simulator']}; machine: {p['machine']}; demos: {p['demos'].get('source')} "
-                  f"(sha256 {p['demos'].get('sha256')}); command: `{p['command']}`.", ""]  # fmt: skip
+    if line := provenance_line(summary):
+        lines += [line, ""]
     lines += ["## Cells", "", _table(["", *cols], [
         ["episodes (successes)", *[f"{s['episodes']} ({s['successes']})" for s in summary.values()]],
         ["planner calls", *[str(s["calls"]) for s in summary.values()]],

@@ -56,3 +56,4 @@ def test_max_pair_difference_and_dimension_shares():
     np.testing.assert_allclose(np.abs(d), [[0.0, 3.0]])
     np.testing.assert_allclose(cs.dimension_shares(np.array([[3.0, 4.0], [0.0, 0.0]])), [9 / 25, 16 / 25])
     np.testing.assert_array_equal(cs.dimension_shares(np.zeros((2, 3))), np.zeros(3))
+
