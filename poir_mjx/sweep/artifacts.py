@@ -53,6 +53,12 @@ def content_digest(path: Path, task: str) -> str:
     return transitions_digest(read_transitions(path, task=task))
 
 
+def checkpoint_digest(path: Path) -> str:
+    """sha256 of a checkpoint file's bytes (16 hex digits): which agent a cell ran. Its name only keys the training
+    config and the data; an agent retrained from the same key on another machine or stack may differ."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
+
+
 def checkpoint_file(method: Method, cfg: SweepConfig, task: str, seed: int, provenance: dict,
                     ckpt_dir: Path) -> tuple[Path, POIRConfig, dict]:  # fmt: skip
     """Where the sweep keeps (method's kind, task, seed)'s agent trained on the data `provenance` describes

@@ -250,8 +250,29 @@ def _provenance(read: dict) -> str:
         where = sorted({(str(r.get("simulator", "MJX")), str(r.get("machine", "?")),
                          str((r.get("data") or {}).get("sha256", "?")), _stack(r.get("stack"))) for r in recs})  # fmt: skip
         lines.append(f"- {run.name}: " + "; ".join(f"{sim}, {mach}, demos sha256 {sha}{st}"
-                                                    for sim, mach, sha, st in where))  # fmt: skip
-    return "\n".join(lines) + "\n\n"
+                                                    for sim, mach, sha, st in where) + _agents(recs))  # fmt: skip
+    return "\n".join(lines + _one_name_two_agents(read)) + "\n\n"
+
+
+def _agents(recs: list[dict]) -> str:
+    """The checkpoints a run's cells ran, with their file digests where the records carry them."""
+    named = sorted({(Path(str(r["checkpoint"])).name, str(r.get("checkpoint_sha256", "not recorded")))
+                    for r in recs if r.get("checkpoint")})  # fmt: skip
+    return "; agents " + ", ".join(f"{n} (sha256 {d})" for n, d in named) if named else ""
+
+
+def _one_name_two_agents(read: dict) -> list[str]:
+    """A warning for each checkpoint name whose cells, across the runs, ran files with different digests: their
+    episodes are not the same agent's, whatever the name says (an agent retrained from the same key may differ)."""
+    seen: dict[str, dict[str, list[str]]] = {}
+    for run, (_, recs) in read.items():
+        for r in recs:
+            if r.get("checkpoint") and r.get("checkpoint_sha256"):
+                runs = seen.setdefault(Path(str(r["checkpoint"])).name, {}).setdefault(str(r["checkpoint_sha256"]), [])
+                runs += [run.name] if run.name not in runs else []
+    return [f"- **{name}: different agents under one name**, " + "; ".join(f"sha256 {d} in {', '.join(rs)}"
+                                                                          for d, rs in digests.items())
+            for name, digests in seen.items() if len(digests) > 1]  # fmt: skip
 
 
 def _stack(stack) -> str:

@@ -39,7 +39,7 @@ from poir_mjx.envs.tasks import float32_square_note
 from poir_mjx.sweep import run_folder
 from poir_mjx.folder_lock import locked
 from poir_mjx.outputs import check_folder, check_run_folder
-from poir_mjx.sweep.artifacts import cell_path, demos_for, train_or_load
+from poir_mjx.sweep.artifacts import cell_path, checkpoint_digest, demos_for, train_or_load
 from poir_mjx.sweep.cells import CellBatch, run_baseline_cells, run_offline_cells, run_online_cells
 from poir_mjx.eval.methods import get_method
 from poir_mjx.sweep.report import write_tables
@@ -136,7 +136,8 @@ def _run(cfg: SweepConfig, out: Path, data_dir: Path, ckpt_dir: Path, progress: 
             continue
         agent, params, ckpt = train_or_load(method, cfg, task, seed, tr, prov, ckpt_dir, progress)
         record_config()
-        batch = dataclasses.replace(batch, common={**common, "checkpoint": str(ckpt)})
+        batch = dataclasses.replace(batch, common={**common, "checkpoint": str(ckpt),
+                                                   "checkpoint_sha256": checkpoint_digest(ckpt)})
         if method.online:
             run_online_cells(batch, agent, params, (tr.obs, tr.actions, tr.next_obs), ckpt_dir, progress, bar.update)
             write_tables(plan)

@@ -178,3 +178,31 @@ def test_several_references_act_as_one_row_of_all_their_cells(tmp_path):
     out = tmp_path / "t.md"
     assert cli.main(["compare", str(a), str(b), "--versus", f"{ref0}:EBC", f"{ref1}:EBC", "--out", str(out)]) == 0
     assert f"| all 2 runs | POIR-DRIL | +9 (p {both:.2g})" in out.read_text()
+
+
+def _ran(run, ckpt, digest=None):
+    """Marks every cell of `run` as having run checkpoint `ckpt` (with the file digest, where given)."""
+    for f in (run / "cells").glob("*.json"):
+        rec = json.loads(f.read_text())
+        rec.update({"checkpoint": f"checkpoints/lift/{ckpt}", **({"checkpoint_sha256": digest} if digest else {})})
+        f.write_text(json.dumps(rec))
+    return run
+
+
+def test_each_runs_agents_and_one_checkpoint_name_with_two_digests(tmp_path):
+    """Cells paired across runs (e.g. with an agent retrained from the same key on another day) say which file ran
+    them; two digests under one checkpoint name are a warning line, one digest (or none recorded) is not."""
+    def page(*runs):
+        out = tmp_path / "page.md"
+        assert cli.main(["compare", *map(str, runs), "--versus", f"{ref}:EBC", "--out", str(out)]) == 0
+        return out.read_text()
+
+    ref = _ran(_seeded(tmp_path, "ref", [("EBC", 0.3, 0.0, 0, 2)]), "policy-seed0-k.ckpt", "aaaa")
+    same = _ran(_seeded(tmp_path, "same", [("EBC", 0.3, 0.0, 0, 5)]), "policy-seed0-k.ckpt", "aaaa")
+    old = _ran(_seeded(tmp_path, "old", [("EBC", 0.3, 0.0, 0, 5)]), "policy-seed0-k.ckpt")
+    text = page(same, old, ref)
+    assert "- ref: " in text and "; agents policy-seed0-k.ckpt (sha256 aaaa)" in text
+    assert "; agents policy-seed0-k.ckpt (sha256 not recorded)" in text and "different agents" not in text
+    other = _ran(_seeded(tmp_path, "other", [("EBC", 0.3, 0.0, 0, 5)]), "policy-seed0-k.ckpt", "bbbb")
+    assert ("- **policy-seed0-k.ckpt: different agents under one name**, sha256 aaaa in same, ref; sha256 bbbb in other"
+            in page(same, other, ref))

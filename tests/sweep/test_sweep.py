@@ -1,12 +1,14 @@
 """A tiny end-to-end sweep on real physics: demos, training, evaluation, tables, resume, eval CLI."""
 
 import json
+from pathlib import Path
 
 import pytest
 
 from poir_mjx import cli
 from poir_mjx.sweep import cells
 from poir_mjx.sweep import run as sw
+from poir_mjx.sweep.artifacts import checkpoint_digest
 from poir_mjx.optional import has_robosuite
 
 # The CPU set records the demos in robosuite as `make sweep` does; the current set (no robosuite) in
@@ -68,6 +70,7 @@ def test_interrupted_sweep_resumes_to_the_same_tables(dirs, monkeypatch):
     assert rec["episodes"] == 2 and rec["successes"] == 0 and rec["mean_episode_length"] == 4
     assert rec["data"]["source"] == "scripted expert" and len(rec["data"]["sha256"]) == 16
     assert rec["data"]["simulator"].startswith("robosuite" if DEMO_SIM == "robosuite" else "MJX")
+    assert rec["checkpoint_sha256"] == checkpoint_digest(Path(rec["checkpoint"]))  # which agent, beyond its name
     assert len(rec["wilson95"]) == 2
     assert "scripted expert" in (full / "lift.md").read_text()
     assert "Simulator: MJX (mujoco-mjx" in (full / "lift.md").read_text() and rec["simulator"].startswith("MJX")
