@@ -264,12 +264,12 @@ def _agents(recs: list[dict]) -> str:
 def _one_name_two_agents(read: dict) -> list[str]:
     """A warning for each checkpoint name whose cells, across the runs, ran files with different digests: their
     episodes are not the same agent's, whatever the name says (an agent retrained from the same key may differ)."""
-    seen: dict[str, dict[str, list[str]]] = {}
+    seen: dict[str, dict[str, dict[str, None]]] = {}  # name -> digest -> the runs (an ordered set)
     for run, (_, recs) in read.items():
         for r in recs:
             if r.get("checkpoint") and r.get("checkpoint_sha256"):
-                runs = seen.setdefault(Path(str(r["checkpoint"])).name, {}).setdefault(str(r["checkpoint_sha256"]), [])
-                runs += [run.name] if run.name not in runs else []
+                digests = seen.setdefault(Path(str(r["checkpoint"])).name, {})
+                digests.setdefault(str(r["checkpoint_sha256"]), {})[run.name] = None
     return [f"- **{name}: different agents under one name**, " + "; ".join(f"sha256 {d} in {', '.join(rs)}"
                                                                           for d, rs in digests.items())
             for name, digests in seen.items() if len(digests) > 1]  # fmt: skip
